@@ -1,0 +1,390 @@
+"""The assembled step loop: one compiled function per physics specification.
+
+``build_chunk_runner(spec)`` returns a numba function that advances the state by ``n_steps`` steps
+without returning to Python. The physics options of the spec are frozen into the function as
+compile-time constants, and numba prunes the branches of the options that are off *before* typing:
+a scene that does not use a term never compiles the kernel for it, and pays nothing for it at run
+time. Different specs are cached separately on disk (``cache=True``), so the many short processes of
+a sweep compile each variant once.
+
+Each step is two parallel passes plus a short serial part:
+1. pairs: every Verlet slot computes its contact force into per-slot arrays (no shared writes);
+2. particles, in fixed blocks: gather slot forces in a fixed order, add walls and gravity, finish the
+   integrator step, then start the next one (Verlet drift or Gear predictor) and move kinematic-body
+   particles to their prescribed pose;
+3. serial: reduce body and wall loads over fixed blocks, rebuild the neighbour list when any particle
+   moved more than half the skin.
+Because no sum depends on how iterations are split among threads, results are bit-identical for any
+thread count.
+"""
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from . import contact as law
+from .kinematics import body_pose, wall_contact
+from .neighbours import build_verlet, min_image, wrap_periodic
+
+BLOCK = 256  # particles per reduction block (fixed, so sums do not depend on the thread count)
+
+# Guard codes written to err[0]; err = [code, step, particle, partner].
+ERR_OVERLAP, ERR_NONFINITE, ERR_SPEED = 1, 2, 3
+
+# Gear 6-value corrector for velocity-dependent forces (Allen & Tildesley table E.2).
+GEAR_C0, GEAR_C1, GEAR_C3, GEAR_C4, GEAR_C5 = 3.0 / 16.0, 251.0 / 360.0, 11.0 / 18.0, 1.0 / 6.0, 1.0 / 60.0
+
+
+@njit(inline="always", cache=True)
+def _verlet_drift(i, dt, x, v, w, acc, alpha):
+    """First half kick and drift of velocity Verlet (positions to t + dt, velocities to t + dt/2)."""
+    for a in range(3):
+        v[i, a] += 0.5 * dt * acc[i, a]
+        w[i, a] += 0.5 * dt * alpha[i, a]
+        x[i, a] += dt * v[i, a]
+
+
+@njit(inline="always", cache=True)
+def _gear_predict(i, dt, x, v, w, acc, alpha, gear):
+    """Taylor predictor of the 6-value Gear scheme for translation and rotation."""
+    h2 = dt * dt / 2.0
+    h3 = h2 * dt / 3.0
+    h4 = h3 * dt / 4.0
+    h5 = h4 * dt / 5.0
+    for a in range(3):
+        b, c, d = gear[i, 0, a], gear[i, 1, a], gear[i, 2, a]
+        x[i, a] += dt * v[i, a] + h2 * acc[i, a] + h3 * b + h4 * c + h5 * d
+        v[i, a] += dt * acc[i, a] + h2 * b + h3 * c + h4 * d
+        acc[i, a] += dt * b + h2 * c + h3 * d
+        gear[i, 0, a] = b + dt * c + h2 * d
+        gear[i, 1, a] = c + dt * d
+        b, c, d = gear[i, 3, a], gear[i, 4, a], gear[i, 5, a]
+        w[i, a] += dt * alpha[i, a] + h2 * b + h3 * c + h4 * d
+        alpha[i, a] += dt * b + h2 * c + h3 * d
+        gear[i, 3, a] = b + dt * c + h2 * d
+        gear[i, 4, a] = c + dt * d
+
+
+@njit(inline="always", cache=True)
+def _gear_correct(i, dt, x, v, w, acc, alpha, gear, a0, a1, a2, b0, b1, b2):
+    """Corrector of the 6-value Gear scheme, given the evaluated accelerations (a, angular b)."""
+    for a in range(3):
+        ev = a0 if a == 0 else (a1 if a == 1 else a2)
+        dA = ev - acc[i, a]
+        x[i, a] += GEAR_C0 * dA * dt * dt / 2.0
+        v[i, a] += GEAR_C1 * dA * dt / 2.0
+        acc[i, a] = ev
+        gear[i, 0, a] += GEAR_C3 * dA * 3.0 / dt
+        gear[i, 1, a] += GEAR_C4 * dA * 12.0 / (dt * dt)
+        gear[i, 2, a] += GEAR_C5 * dA * 60.0 / (dt * dt * dt)
+        ev = b0 if a == 0 else (b1 if a == 1 else b2)
+        dA = ev - alpha[i, a]
+        w[i, a] += GEAR_C1 * dA * dt / 2.0
+        alpha[i, a] = ev
+        gear[i, 3, a] += GEAR_C3 * dA * 3.0 / dt
+        gear[i, 4, a] += GEAR_C4 * dA * 12.0 / (dt * dt)
+        gear[i, 5, a] += GEAR_C5 * dA * 60.0 / (dt * dt * dt)
+
+
+def build_chunk_runner(spec):
+    """Compile (or load from cache) the chunk runner for a :class:`~millsim.engine.spec.PhysicsSpec`."""
+    LAW = law.LAW_IDS[spec.contact_law]
+    ROLLING = spec.rolling_friction
+    GEAR = spec.integrator == "gear"
+    CLIP = spec.clip_normal
+    GRAVITY = spec.gravity
+    WALLS = spec.walls
+    BODIES = spec.bodies
+    PERIODIC = spec.periodic
+    SPRING = law.LAW_HAS_SPRING[spec.contact_law]
+
+    @njit(parallel=True, cache=True)
+    def run_chunk(n_steps, t, dt, P, C, pair_params, walls, wall_hist, bodies, body_members,
+                  gravity, box_lo, box_len, skin, dim, max_overlap, v_max,
+                  body_load, body_impulse, body_work, wall_impulse, wall_work, counters, err):
+        n = P.x.shape[0]
+        x, v, w, acc, alpha = P.x, P.v, P.w, P.acc, P.alpha
+        radius, inv_mass, inv_inertia = P.radius, P.inv_mass, P.inv_inertia
+        material, body, x_ref, x_body0, gear = P.material, P.body, P.x_ref, P.x_body0, P.gear
+        start, nbr, state, rev_start, rev_slot = C.start, C.nbr, C.state, C.rev_start, C.rev_slot
+        n_walls = walls.shape[0]
+        n_blocks = (n + BLOCK - 1) // BLOCK
+        half_skin2 = 0.25 * skin * skin
+        v_max2 = v_max * v_max
+        rebuild = np.zeros(1, dtype=np.int64)
+        wall_part = np.zeros((n_blocks, max(n_walls, 1), 7))
+
+        # Start the first step (Verlet drift / Gear predictor) and place body particles at t + dt.
+        for i in prange(n):
+            if body[i] < 0:
+                if GEAR:
+                    _gear_predict(i, dt, x, v, w, acc, alpha, gear)
+                else:
+                    _verlet_drift(i, dt, x, v, w, acc, alpha)
+            elif BODIES:
+                p0, p1, p2, u0, u1, u2 = body_pose(bodies[body[i]], x_body0[i], t + dt)
+                x[i, 0], x[i, 1], x[i, 2] = p0, p1, p2
+                v[i, 0], v[i, 1], v[i, 2] = u0, u1, u2
+
+        steps_done = 0
+        # Per-slot results: force on i, n x F_t (torque on either body is -r n x F_t), and the
+        # rolling torques on i and j when rolling friction is compiled in.
+        pf = np.empty((nbr.shape[0], 3))
+        pc = np.empty_like(pf)
+        proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
+        for step in range(n_steps):
+            # ---- pass 1: contact forces per Verlet slot --------------------------------------
+            for i in prange(n):
+                for k in range(start[i], start[i + 1]):
+                    j = nbr[k]
+                    d0 = x[i, 0] - x[j, 0]
+                    d1 = x[i, 1] - x[j, 1]
+                    d2 = x[i, 2] - x[j, 2]
+                    if PERIODIC:
+                        d0 = min_image(d0, 0, box_len)
+                        d1 = min_image(d1, 1, box_len)
+                        d2 = min_image(d2, 2, box_len)
+                    rsum = radius[i] + radius[j]
+                    dist2 = d0 * d0 + d1 * d1 + d2 * d2
+                    if dist2 >= rsum * rsum:
+                        if SPRING:
+                            state[k, 0] = 0.0
+                            state[k, 1] = 0.0
+                            state[k, 2] = 0.0
+                        for a in range(3):
+                            pf[k, a] = 0.0
+                            pc[k, a] = 0.0
+                        if ROLLING:
+                            proll[k, :, :] = 0.0
+                        continue
+                    dist = math.sqrt(dist2)
+                    n0, n1, n2 = d0 / dist, d1 / dist, d2 / dist
+                    xi = rsum - dist
+                    ri, rj = radius[i], radius[j]
+                    if xi > max_overlap * min(ri, rj):
+                        err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
+                    # Relative velocity of i's contact point w.r.t. j's: dv - (ri wi + rj wj) x n.
+                    s0 = ri * w[i, 0] + rj * w[j, 0]
+                    s1 = ri * w[i, 1] + rj * w[j, 1]
+                    s2 = ri * w[i, 2] + rj * w[j, 2]
+                    vr0 = v[i, 0] - v[j, 0] - (s1 * n2 - s2 * n1)
+                    vr1 = v[i, 1] - v[j, 1] - (s2 * n0 - s0 * n2)
+                    vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
+                    m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
+                    p = pair_params[material[i], material[j]]
+                    if LAW == law.LINEAR_HW:
+                        fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff, CLIP)
+                    elif LAW == law.LINEAR_HISTORY:
+                        fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff,
+                                                            CLIP, state, k, dt)
+                    else:
+                        fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xi, n0, n1, n2, vr0, vr1, vr2,
+                                                                  m_eff, ri * rj / rsum, CLIP,
+                                                                  state, k, dt)
+                    pf[k, 0] = fn * n0 + f0
+                    pf[k, 1] = fn * n1 + f1
+                    pf[k, 2] = fn * n2 + f2
+                    pc[k, 0] = n1 * f2 - n2 * f1
+                    pc[k, 1] = n2 * f0 - n0 * f2
+                    pc[k, 2] = n0 * f1 - n1 * f0
+                    if ROLLING:
+                        # EDEM "standard": constant torque opposing each body's own spin.
+                        mr = p[law.P_MU_ROLL] * fn_el
+                        wi = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+                        wj = math.sqrt(w[j, 0] ** 2 + w[j, 1] ** 2 + w[j, 2] ** 2)
+                        for a in range(3):
+                            proll[k, 0, a] = -mr * ri * w[i, a] / wi if wi > 0.0 else 0.0
+                            proll[k, 1, a] = -mr * rj * w[j, a] / wj if wj > 0.0 else 0.0
+
+            # ---- pass 2: per particle, in fixed blocks ----------------------------------------
+            last = step == n_steps - 1
+            for blk in prange(n_blocks):
+                for i in range(blk * BLOCK, min(n, (blk + 1) * BLOCK)):
+                    F0 = 0.0
+                    F1 = 0.0
+                    F2 = 0.0
+                    C0 = 0.0
+                    C1 = 0.0
+                    C2 = 0.0
+                    R0 = 0.0
+                    R1 = 0.0
+                    R2 = 0.0
+                    for k in range(start[i], start[i + 1]):
+                        F0 += pf[k, 0]
+                        F1 += pf[k, 1]
+                        F2 += pf[k, 2]
+                        C0 += pc[k, 0]
+                        C1 += pc[k, 1]
+                        C2 += pc[k, 2]
+                        if ROLLING:
+                            R0 += proll[k, 0, 0]
+                            R1 += proll[k, 0, 1]
+                            R2 += proll[k, 0, 2]
+                    for q in range(rev_start[i], rev_start[i + 1]):
+                        k = rev_slot[q]
+                        F0 -= pf[k, 0]
+                        F1 -= pf[k, 1]
+                        F2 -= pf[k, 2]
+                        C0 += pc[k, 0]
+                        C1 += pc[k, 1]
+                        C2 += pc[k, 2]
+                        if ROLLING:
+                            R0 += proll[k, 1, 0]
+                            R1 += proll[k, 1, 1]
+                            R2 += proll[k, 1, 2]
+                    T0 = R0 - radius[i] * C0
+                    T1 = R1 - radius[i] * C1
+                    T2 = R2 - radius[i] * C2
+                    if WALLS and body[i] < 0:
+                        for iw in range(n_walls):
+                            xi, n0, n1, n2, u0, u1, u2 = wall_contact(walls[iw], x[i, 0], x[i, 1],
+                                                                      x[i, 2], radius[i])
+                            if xi <= 0.0:
+                                wall_hist[i, iw, 0] = 0.0
+                                wall_hist[i, iw, 1] = 0.0
+                                wall_hist[i, iw, 2] = 0.0
+                                continue
+                            ri = radius[i]
+                            if xi > max_overlap * ri:
+                                err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
+                            vr0 = v[i, 0] - u0 - ri * (w[i, 1] * n2 - w[i, 2] * n1)
+                            vr1 = v[i, 1] - u1 - ri * (w[i, 2] * n0 - w[i, 0] * n2)
+                            vr2 = v[i, 2] - u2 - ri * (w[i, 0] * n1 - w[i, 1] * n0)
+                            m_eff = 1.0 / inv_mass[i]
+                            p = pair_params[material[i], int(walls[iw, 9])]
+                            hist = wall_hist[i]
+                            if LAW == law.LINEAR_HW:
+                                fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2,
+                                                               m_eff, CLIP)
+                            elif LAW == law.LINEAR_HISTORY:
+                                fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1,
+                                                                    vr2, m_eff, CLIP, hist, iw, dt)
+                            else:
+                                fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xi, n0, n1, n2, vr0,
+                                                                          vr1, vr2, m_eff, ri, CLIP,
+                                                                          hist, iw, dt)
+                            g0 = fn * n0 + f0
+                            g1 = fn * n1 + f1
+                            g2 = fn * n2 + f2
+                            c0 = -ri * (n1 * f2 - n2 * f1)
+                            c1 = -ri * (n2 * f0 - n0 * f2)
+                            c2 = -ri * (n0 * f1 - n1 * f0)
+                            if ROLLING:
+                                wn = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+                                if wn > 0.0:
+                                    mr = p[law.P_MU_ROLL] * fn_el * ri / wn
+                                    c0 -= mr * w[i, 0]
+                                    c1 -= mr * w[i, 1]
+                                    c2 -= mr * w[i, 2]
+                            F0 += g0
+                            F1 += g1
+                            F2 += g2
+                            T0 += c0
+                            T1 += c1
+                            T2 += c2
+                            # Reaction on the wall: force, torque about its point p, power given.
+                            cp0 = x[i, 0] - ri * n0 - walls[iw, 1]
+                            cp1 = x[i, 1] - ri * n1 - walls[iw, 2]
+                            cp2 = x[i, 2] - ri * n2 - walls[iw, 3]
+                            wp = wall_part[blk, iw]
+                            wp[0] -= g0
+                            wp[1] -= g1
+                            wp[2] -= g2
+                            wp[3] -= cp1 * g2 - cp2 * g1
+                            wp[4] -= cp2 * g0 - cp0 * g2
+                            wp[5] -= cp0 * g1 - cp1 * g0
+                            wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
+                    if body[i] < 0:
+                        a0 = F0 * inv_mass[i]
+                        a1 = F1 * inv_mass[i]
+                        a2 = F2 * inv_mass[i]
+                        if GRAVITY:
+                            a0 += gravity[0]
+                            a1 += gravity[1]
+                            a2 += gravity[2]
+                        b0 = T0 * inv_inertia[i]
+                        b1 = T1 * inv_inertia[i]
+                        b2 = T2 * inv_inertia[i]
+                        if GEAR:
+                            _gear_correct(i, dt, x, v, w, acc, alpha, gear, a0, a1, a2, b0, b1, b2)
+                            if not last:
+                                _gear_predict(i, dt, x, v, w, acc, alpha, gear)
+                        else:
+                            acc[i, 0], acc[i, 1], acc[i, 2] = a0, a1, a2
+                            alpha[i, 0], alpha[i, 1], alpha[i, 2] = b0, b1, b2
+                            for a in range(3):
+                                v[i, a] += 0.5 * dt * acc[i, a]
+                                w[i, a] += 0.5 * dt * alpha[i, a]
+                            if not last:
+                                _verlet_drift(i, dt, x, v, w, acc, alpha)
+                        sp2 = v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2
+                        if not (sp2 <= v_max2):
+                            err[0] = ERR_SPEED if sp2 == sp2 else ERR_NONFINITE
+                            err[1], err[2], err[3] = step, i, -1
+                    else:
+                        # Body particles keep the load they received for the body reduction.
+                        acc[i, 0], acc[i, 1], acc[i, 2] = F0, F1, F2
+                        alpha[i, 0], alpha[i, 1], alpha[i, 2] = T0, T1, T2
+                        if BODIES and not last:
+                            p0, p1, p2, u0, u1, u2 = body_pose(bodies[body[i]], x_body0[i],
+                                                               t + (step + 2) * dt)
+                            x[i, 0], x[i, 1], x[i, 2] = p0, p1, p2
+                            v[i, 0], v[i, 1], v[i, 2] = u0, u1, u2
+                    dx0 = x[i, 0] - x_ref[i, 0]
+                    dx1 = x[i, 1] - x_ref[i, 1]
+                    dx2 = x[i, 2] - x_ref[i, 2]
+                    if dx0 * dx0 + dx1 * dx1 + dx2 * dx2 > half_skin2:
+                        rebuild[0] = 1
+
+            # ---- serial: loads on bodies and walls, list rebuild ------------------------------
+            if BODIES:
+                body_load[:, :] = 0.0
+                for q in range(body_members.shape[0]):
+                    i = body_members[q]
+                    b = body[i]
+                    bl = body_load[b]
+                    r0 = x[i, 0] - bodies[b, 1]
+                    r1 = x[i, 1] - bodies[b, 2]
+                    r2 = x[i, 2] - bodies[b, 3]
+                    bl[0] += acc[i, 0]
+                    bl[1] += acc[i, 1]
+                    bl[2] += acc[i, 2]
+                    bl[3] += r1 * acc[i, 2] - r2 * acc[i, 1] + alpha[i, 0]
+                    bl[4] += r2 * acc[i, 0] - r0 * acc[i, 2] + alpha[i, 1]
+                    bl[5] += r0 * acc[i, 1] - r1 * acc[i, 0] + alpha[i, 2]
+                for b in range(bodies.shape[0]):
+                    for c in range(6):
+                        body_impulse[b, c] += body_load[b, c] * dt
+                    # Power the body puts in = -(load on body) . (its velocity), minus sign below.
+                    a0, a1, a2, rate = bodies[b, 4], bodies[b, 5], bodies[b, 6], bodies[b, 7]
+                    if int(bodies[b, 0]) == 0:
+                        power = -(body_load[b, 3] * a0 + body_load[b, 4] * a1 + body_load[b, 5] * a2) * rate
+                    else:
+                        power = -(body_load[b, 0] * a0 + body_load[b, 1] * a1 + body_load[b, 2] * a2) * rate
+                    body_work[b] += power * dt
+            if WALLS:
+                for iw in range(n_walls):
+                    for blk in range(n_blocks):
+                        for c in range(6):
+                            wall_impulse[iw, c] += wall_part[blk, iw, c] * dt
+                        wall_work[iw] -= wall_part[blk, iw, 6] * dt
+                wall_part[:, :, :] = 0.0
+            steps_done = step + 1
+            if err[0] != 0:
+                break
+            if rebuild[0] != 0 and not last:
+                if PERIODIC:
+                    wrap_periodic(x, body, box_lo, box_len)
+                start, nbr, state, rev_start, rev_slot = build_verlet(
+                    x, radius, body, skin, dim, box_lo, box_len, start, nbr, state)
+                x_ref[:, :] = x
+                rebuild[0] = 0
+                pf = np.empty((nbr.shape[0], 3))
+                pc = np.empty_like(pf)
+                proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
+                counters[0] += 1
+        counters[1] += steps_done
+        return steps_done, start, nbr, state, rev_start, rev_slot
+
+    return run_chunk

@@ -1,0 +1,368 @@
+"""The Simulation object: owns the state, chooses the time step, runs compiled chunks, guards.
+
+Python touches the state only between chunks: to record outputs, print progress, check the guards,
+and add or remove particles. Everything inside a chunk runs in the compiled loop of
+:mod:`millsim.engine.loop`.
+"""
+
+import math
+import sys
+import time
+
+import numba
+import numpy as np
+
+from . import contact as law
+from .kinematics import BODY_COLUMNS, BODY_KINDS, WALL_COLUMNS, WALL_KINDS
+from .loop import ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED
+from .neighbours import build_verlet, wrap_periodic
+from .spec import PhysicsSpec, chunk_runner
+from .state import (allocate, concatenate, disk_or_sphere_mass, empty_contacts, moment_of_inertia,
+                    select)
+from .timestep import time_step_report
+
+
+# Below this many particles one thread is faster than opening parallel regions every step; results
+# are identical either way.
+SERIAL_BELOW = 2000
+
+
+class SimulationError(RuntimeError):
+    """The run became unphysical (NaN, runaway speed, excessive overlap); names step and particle."""
+
+
+def _unit(v, key):
+    v = np.asarray(v, dtype=float).reshape(3)
+    norm = np.linalg.norm(v)
+    if norm == 0:
+        raise ValueError(f"{key}: must be a non-zero vector")
+    return v / norm
+
+
+def _vec3(a, n):
+    a = np.zeros((n, 3)) if a is None else np.asarray(a, dtype=float)
+    if a.ndim == 2 and a.shape[1] == 2:
+        a = np.column_stack([a, np.zeros(len(a))])
+    return a.reshape(n, 3)
+
+
+class Simulation:
+    """One DEM system: particles, walls, kinematic bodies, a material table and a physics spec.
+
+    Args:
+        spec: which physics the compiled loop contains.
+        table: :class:`~millsim.engine.materials.MaterialTable` (contact law must match ``spec``).
+        x, radius, material: initial positions [m] (N x dim), radii [m], material names.
+        v, w: initial velocities [m/s] and angular velocities [rad/s] (default 0).
+        body: kinematic body index per particle (-1 = free; default all free).
+        walls: list of dicts ``{kind, point, normal|axis, radius, omega, material}``.
+        bodies: list of dicts ``{kind: rotate|translate, center, axis, rate}``.
+        gravity: acceleration vector [m/s2].
+        box_lo, box_len: periodic box origin and lengths per axis [m] (length 0 = not periodic).
+        skin: Verlet skin [m] (default 0.1 of the mean diameter).
+        dt: time step [s]; default the recommended step; refused above the stability limit.
+        impact_speed: largest expected impact speed [m/s] (sets the Hertz contact-time bound).
+        max_overlap: guard, overlap / smaller radius beyond which the run stops.
+        v_max: guard, particle speed [m/s] beyond which the run stops (runaway energy).
+        thickness: disk thickness [m] for 2D masses.
+    """
+
+    def __init__(self, spec: PhysicsSpec, table, x, radius, material, v=None, w=None, body=None,
+                 walls=(), bodies=(), gravity=(0.0, 0.0, -9.81), box_lo=None, box_len=None,
+                 skin=None, dt=None, impact_speed=1.0, max_overlap=0.3, v_max=None, thickness=1.0):
+        if table.contact_law != spec.contact_law:
+            raise ValueError(f"contact_law: table uses {table.contact_law!r}, spec {spec.contact_law!r}")
+        self.spec = spec
+        self.table = table
+        self.thickness = float(thickness)
+        self.pair_params = table.pair_params()
+        radius = np.asarray(radius, dtype=float)
+        n = len(radius)
+        if n == 0:
+            raise ValueError("radius: at least one particle is required")
+        self.walls = self._wall_table(walls)
+        self.bodies = self._body_table(bodies)
+        self.gravity = np.asarray(gravity, dtype=float).reshape(3)
+        self.box_lo = np.zeros(3) if box_lo is None else np.asarray(box_lo, dtype=float).reshape(3)
+        self.box_len = np.zeros(3) if box_len is None else np.asarray(box_len, dtype=float).reshape(3)
+        if (self.box_len > 0).any() != spec.periodic:
+            raise ValueError("box_len: periodic lengths given iff spec.periodic is true")
+        self.impact_speed = float(impact_speed)
+        self.max_overlap = float(max_overlap)
+        self.v_max = float(v_max) if v_max is not None else max(100.0, 10.0 * self.impact_speed)
+        self.state_columns = 3 if law.LAW_HAS_SPRING[spec.contact_law] else 0
+        self.particles = self._make_particles(x, radius, material, v, w, body)
+        mean_d = 2.0 * float(np.mean(radius))
+        self.skin = 0.1 * mean_d if skin is None else float(skin)
+        self.time = 0.0
+        self.step = 0
+        self.counters = np.zeros(2, dtype=np.int64)  # [list rebuilds, steps]
+        nb, nw = len(self.bodies), len(self.walls)
+        self.body_load = np.zeros((nb, 6))
+        self.body_impulse = np.zeros((nb, 6))
+        self.body_work = np.zeros(nb)
+        self.wall_impulse = np.zeros((nw, 6))
+        self.wall_work = np.zeros(nw)
+        self.wall_hist = np.zeros((n, nw, 3))
+        self._refresh_members()
+        self._rebuild_contacts(empty_contacts(n, self.state_columns))
+        self.dt_report = self._time_step_report()
+        self.dt = self.dt_report.check(float(dt)) if dt is not None else self.dt_report.recommended
+        self.wall_seconds = 0.0
+
+    # ---- construction helpers -----------------------------------------------------------------
+    def _material_index(self, names):
+        idx = []
+        for name in np.atleast_1d(names):
+            name = str(name)
+            if name not in self.table.index:
+                raise ValueError(f"material: unknown material {name!r}; known: {sorted(self.table.index)}")
+            idx.append(self.table.index[name])
+        return np.asarray(idx, dtype=np.int32)
+
+    def _make_particles(self, x, radius, material, v, w, body, x_body0=None):
+        n = len(radius)
+        if (radius <= 0).any() or not np.isfinite(radius).all():
+            raise ValueError(f"radius: must be > 0, got min {radius.min():g}")
+        mat = self._material_index(material if np.ndim(material) else [material] * n)
+        if len(mat) != n:
+            raise ValueError(f"material: {len(mat)} names for {n} particles")
+        density = np.array([self.table.materials[m].density for m in mat])
+        mass = disk_or_sphere_mass(radius, density, self.spec.dim, self.thickness)
+        inertia = moment_of_inertia(mass, radius, self.spec.dim)
+        body = np.full(n, -1, dtype=np.int32) if body is None else np.asarray(body, dtype=np.int32)
+        if body.max(initial=-1) >= len(self.bodies):
+            raise ValueError(f"body: index {body.max()} but only {len(self.bodies)} bodies defined")
+        kin = body >= 0
+        x = _vec3(x, n)
+        w = _vec3(w, n)
+        if self.spec.dim == 2:
+            w[:, :2] = 0.0  # disks spin about z only
+        # Kinematic particles: infinite mass and inertia (they never respond to forces).
+        inv_mass = np.where(kin, 0.0, 1.0 / mass)
+        inv_inertia = np.where(kin, 0.0, 1.0 / inertia)
+        p = allocate(x, _vec3(v, n), w, radius, inv_mass, inv_inertia, mat, body,
+                     x.copy() if x_body0 is None else x_body0, self.spec.integrator == "gear")
+        p.acc[~kin] = self.gravity if self.spec.gravity else 0.0
+        return p
+
+    def _wall_table(self, walls):
+        table = np.zeros((len(walls), WALL_COLUMNS))
+        for k, wall in enumerate(walls):
+            key = f"walls[{k}]"
+            kind = wall.get("kind")
+            if kind not in WALL_KINDS:
+                raise ValueError(f"{key}.kind: must be one of {sorted(WALL_KINDS)}, got {kind!r}")
+            axis = wall.get("normal", wall.get("axis"))
+            table[k, 0] = WALL_KINDS[kind]
+            table[k, 1:4] = np.asarray(wall.get("point", (0, 0, 0)), dtype=float)
+            table[k, 4:7] = _unit(axis, f"{key}.axis")
+            if kind != "plane":
+                table[k, 7] = wall["radius"]
+                if table[k, 7] <= 0:
+                    raise ValueError(f"{key}.radius: must be > 0")
+                table[k, 8] = wall.get("omega", 0.0)
+            table[k, 9] = self._material_index([wall["material"]])[0]
+        if len(walls) and not self.spec.walls:
+            raise ValueError("walls: given but spec.walls is false")
+        return table
+
+    def _body_table(self, bodies):
+        table = np.zeros((len(bodies), BODY_COLUMNS))
+        for k, b in enumerate(bodies):
+            kind = b.get("kind")
+            if kind not in BODY_KINDS:
+                raise ValueError(f"bodies[{k}].kind: must be one of {sorted(BODY_KINDS)}, got {kind!r}")
+            table[k, 0] = BODY_KINDS[kind]
+            table[k, 1:4] = np.asarray(b.get("center", (0, 0, 0)), dtype=float)
+            table[k, 4:7] = _unit(b.get("axis", (0, 0, 1)), f"bodies[{k}].axis")
+            table[k, 7] = float(b.get("rate", 0.0))
+        if len(bodies) and not self.spec.bodies:
+            raise ValueError("bodies: given but spec.bodies is false")
+        return table
+
+    def _refresh_members(self):
+        self.body_members = np.flatnonzero(self.particles.body >= 0).astype(np.int64)
+
+    def _rebuild_contacts(self, old):
+        p = self.particles
+        if self.spec.periodic:
+            wrap_periodic(p.x, p.body, self.box_lo, self.box_len)
+        self.contacts = type(old)(*build_verlet(p.x, p.radius, p.body, self.skin, self.spec.dim,
+                                                self.box_lo, self.box_len, old.start, old.nbr,
+                                                old.state))
+        p.x_ref[:] = p.x
+
+    def _time_step_report(self):
+        p = self.particles
+        mass = np.where(p.inv_mass > 0, 1.0 / np.where(p.inv_mass > 0, p.inv_mass, 1.0), np.inf)
+        boundary = [int(m) for m in self.walls[:, 9]] + [int(m) for m in p.material[p.body >= 0]]
+        return time_step_report(self.table, self.spec, p.radius, mass, p.material, p.body,
+                                boundary, self.impact_speed)
+
+    # ---- running ------------------------------------------------------------------------------
+    def run(self, steps, chunk=2000, observer=None, progress=False, threads=None):
+        """Advance ``steps`` steps in compiled chunks; call ``observer(self)`` after each chunk.
+
+        ``threads`` defaults to numba's current setting; small systems run on one thread.
+        """
+        runner = chunk_runner(self.spec)
+        progress = Progress(steps, self.dt) if progress else None
+        saved = numba.get_num_threads()
+        threads = saved if threads is None else int(threads)
+        done = 0
+        try:
+            while done < steps:
+                n = min(chunk, steps - done)
+                numba.set_num_threads(1 if self.n_particles < SERIAL_BELOW else threads)
+                t0 = time.perf_counter()
+                self._run_chunk(runner, n)
+                self.wall_seconds += time.perf_counter() - t0
+                done += n
+                if progress:
+                    progress.update(done, self.n_particles)
+                if observer is not None:
+                    observer(self)
+        finally:
+            numba.set_num_threads(saved)
+        if progress:
+            progress.finish()
+
+    def _run_chunk(self, runner, n):
+        p, c = self.particles, self.contacts
+        err = np.zeros(4, dtype=np.int64)
+        out = runner(n, self.time, self.dt, p, c, self.pair_params, self.walls, self.wall_hist,
+                     self.bodies, self.body_members, self.gravity, self.box_lo, self.box_len,
+                     self.skin, self.spec.dim, self.max_overlap, self.v_max, self.body_load,
+                     self.body_impulse, self.body_work, self.wall_impulse, self.wall_work,
+                     self.counters, err)
+        done = int(out[0])
+        self.contacts = type(c)(*out[1:])
+        self.step += done
+        self.time += done * self.dt
+        if err[0]:
+            raise SimulationError(self._describe_error(err))
+
+    def _describe_error(self, err):
+        code, step, i, j = (int(e) for e in err)
+        step_abs = self.step - 1
+        where = f"step {step_abs} (t = {self.time:.6g} s)"
+        p = self.particles
+        if code == ERR_OVERLAP:
+            partner = f"wall {-1 - j}" if j < 0 else f"particle {j}"
+            return (f"{where}: overlap between particle {i} and {partner} exceeds "
+                    f"{self.max_overlap:g} of the smaller radius; reduce dt (now {self.dt:.4g} s, "
+                    f"limit {self.dt_report.limit:.4g} s) or check the initial state")
+        speed = float(np.linalg.norm(p.v[i]))
+        if code == ERR_NONFINITE:
+            return f"{where}: particle {i} has a non-finite velocity (NaN/inf)"
+        if code == ERR_SPEED:
+            return (f"{where}: runaway kinetic energy, particle {i} moves at {speed:.4g} m/s, above "
+                    f"v_max = {self.v_max:.4g} m/s")
+        return f"{where}: guard code {code} on particle {i}"
+
+    def set_time_step(self, dt):
+        """Change dt (refused above the stability limit)."""
+        self.dt = self.dt_report.check(float(dt))
+
+    # ---- adding and removing particles (between chunks) ---------------------------------------
+    def remove_particles(self, mask):
+        """Remove particles where ``mask`` is true; contact state of surviving pairs is kept."""
+        keep = ~np.asarray(mask, dtype=bool)
+        new_index = np.cumsum(keep) - 1
+        old = self.contacts
+        pairs_i = np.repeat(np.arange(len(keep)), np.diff(old.start))
+        sel = keep[pairs_i] & keep[old.nbr]
+        ni, nj = new_index[pairs_i[sel]], new_index[old.nbr[sel]]
+        start = np.zeros(int(keep.sum()) + 1, dtype=np.int64)
+        np.add.at(start, ni + 1, 1)
+        relabelled = type(old)(np.cumsum(start), nj.astype(np.int32), old.state[sel],
+                               old.rev_start, old.rev_slot)
+        self.particles = select(self.particles, keep)
+        self.wall_hist = self.wall_hist[keep]
+        self._after_change(relabelled)
+
+    def add_particles(self, x, radius, material, v=None, w=None):
+        """Append free particles; the time step bound is re-evaluated (fragments shrink it)."""
+        radius = np.asarray(radius, dtype=float)
+        new = self._make_particles(x, radius, material, v, w, None)
+        n_old = len(self.particles.radius)
+        self.particles = concatenate(self.particles, new)
+        self.wall_hist = np.concatenate([self.wall_hist, np.zeros((len(radius), len(self.walls), 3))])
+        old = self.contacts
+        start = np.concatenate([old.start, np.full(len(radius), old.start[-1])])
+        self._after_change(type(old)(start, old.nbr, old.state, old.rev_start, old.rev_slot))
+        return np.arange(n_old, n_old + len(radius))
+
+    def _after_change(self, relabelled):
+        self._refresh_members()
+        self._rebuild_contacts(relabelled)
+        self.dt_report = self._time_step_report()
+        if self.dt > self.dt_report.limit:
+            self.dt = self.dt_report.recommended
+
+    # ---- observables --------------------------------------------------------------------------
+    @property
+    def n_particles(self):
+        return len(self.particles.radius)
+
+    @property
+    def free(self):
+        return self.particles.body < 0
+
+    def masses(self):
+        p = self.particles
+        return np.where(p.inv_mass > 0, 1.0 / np.where(p.inv_mass > 0, p.inv_mass, 1.0), 0.0)
+
+    def kinetic_energy(self):
+        """Translational + rotational kinetic energy of the free particles [J]."""
+        p = self.particles
+        free = self.free
+        m = 1.0 / p.inv_mass[free]
+        inertia = 1.0 / p.inv_inertia[free]
+        return float(0.5 * (m * (p.v[free] ** 2).sum(1)).sum()
+                     + 0.5 * (inertia * (p.w[free] ** 2).sum(1)).sum())
+
+    def potential_energy(self):
+        """Gravitational potential energy of the free particles relative to the origin [J]."""
+        if not self.spec.gravity:
+            return 0.0
+        p = self.particles
+        free = self.free
+        return float(-(1.0 / p.inv_mass[free] * (p.x[free] @ self.gravity)).sum())
+
+    def contact_pairs(self):
+        """(i, j, overlap) of the particle pairs in contact now."""
+        p, c = self.particles, self.contacts
+        i = np.repeat(np.arange(self.n_particles), np.diff(c.start))
+        j = c.nbr.astype(np.int64)
+        d = p.x[i] - p.x[j]
+        for a in range(3):
+            if self.box_len[a] > 0:
+                d[:, a] -= self.box_len[a] * np.floor(d[:, a] / self.box_len[a] + 0.5)
+        overlap = p.radius[i] + p.radius[j] - np.linalg.norm(d, axis=1)
+        touching = overlap > 0
+        return i[touching], j[touching], overlap[touching]
+
+
+class Progress:
+    """Progress line on stderr at most every few seconds: steps/s, simulated time, ETA."""
+
+    def __init__(self, total, dt, every=5.0):
+        self.total, self.dt, self.every = total, dt, every
+        self.start = self.last = time.perf_counter()
+
+    def update(self, done, n_particles):
+        now = time.perf_counter()
+        if now - self.last < self.every and done < self.total:
+            return
+        self.last = now
+        rate = done / max(now - self.start, 1e-9)
+        eta = (self.total - done) / rate if rate > 0 else math.inf
+        print(f"[millsim] step {done}/{self.total}  t = {done * self.dt:.4g} s  "
+              f"{rate:.3g} steps/s  {rate * n_particles:.3g} particle-steps/s  ETA {eta:.0f} s",
+              file=sys.stderr, flush=True)
+
+    def finish(self):
+        elapsed = time.perf_counter() - self.start
+        print(f"[millsim] done: {self.total} steps in {elapsed:.1f} s", file=sys.stderr, flush=True)

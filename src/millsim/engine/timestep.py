@@ -1,0 +1,136 @@
+"""Time step from the stiffest interaction present, and the stability limit a user step must meet.
+
+For every pair of materials that can touch (free particles with each other, with walls and with
+kinematic bodies) the smallest particles of each material set the fastest contact:
+
+- Hertz-Mindlin: the Rayleigh time T_R = pi r sqrt(rho/G) / (0.1631 nu + 0.8766) of the smallest
+  particle, and the Hertz contact time t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5) at the scene's largest
+  expected impact speed v (it shrinks with v, the Rayleigh time does not).
+- linear laws: the damped collision time t_c = pi / sqrt(w0^2 - beta^2), w0^2 = k / m_eff.
+
+The recommended step resolves a contact with >= 50 steps (0.1 T_R for Hertz); the refusal limit is
+10 steps per contact (0.4 T_R, EDEM's upper recommendation), and for the Gear corrector also
+w0 dt <= 0.2 (it goes unstable near 0.25 with damping, see ballmill.md section 1).
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import contact as law
+
+STEPS_PER_CONTACT_LIMIT = 10
+STEPS_PER_CONTACT_RECOMMENDED = 50
+RAYLEIGH_LIMIT = 0.4
+RAYLEIGH_RECOMMENDED = 0.1
+GEAR_OMEGA_DT_LIMIT = 0.2
+
+
+class TimeStepError(ValueError):
+    """A requested time step above the stability limit."""
+
+
+def rayleigh_time(radius, density, shear_modulus, poisson_ratio):
+    return math.pi * radius * math.sqrt(density / shear_modulus) / (0.1631 * poisson_ratio + 0.8766)
+
+
+def hertz_contact_time(m_eff, r_eff, e_star, speed):
+    return 2.87 * (m_eff**2 / (r_eff * e_star**2 * speed)) ** 0.2
+
+
+def linear_contact_time(stiffness, m_eff, damping_rate):
+    """Collision time of a linear spring-dashpot, damping rate gamma (force m_eff gamma xi_dot)."""
+    w0 = math.sqrt(stiffness / m_eff)
+    beta = 0.5 * damping_rate
+    w = math.sqrt(max(w0 * w0 - beta * beta, 0.25 * w0 * w0))
+    return math.pi / w, w0
+
+
+@dataclass(frozen=True)
+class StepBound:
+    interaction: str
+    limit: float
+    recommended: float
+
+
+@dataclass(frozen=True)
+class TimeStepReport:
+    bounds: tuple
+
+    @property
+    def limit(self):
+        return min(b.limit for b in self.bounds)
+
+    @property
+    def recommended(self):
+        return min(b.recommended for b in self.bounds)
+
+    @property
+    def binding(self) -> StepBound:
+        return min(self.bounds, key=lambda b: b.limit)
+
+    def check(self, dt):
+        """Return dt if it is within the limit; raise TimeStepError naming the limit otherwise."""
+        if not dt > 0:
+            raise TimeStepError(f"dt: must be > 0, got {dt}")
+        b = self.binding
+        if dt > b.limit:
+            raise TimeStepError(
+                f"dt: {dt:.4g} s exceeds the stability limit {b.limit:.4g} s set by {b.interaction}; "
+                f"use dt <= {b.limit:.4g} s (recommended {self.recommended:.4g} s)")
+        return dt
+
+
+def time_step_report(table, spec, radius, mass, material, body, boundary_materials, impact_speed):
+    """Bounds for every material pair that can be in contact.
+
+    Args:
+        table: :class:`~millsim.engine.materials.MaterialTable`.
+        spec: :class:`~millsim.engine.spec.PhysicsSpec`.
+        radius, mass, material, body: per-particle arrays (body >= 0 marks kinematic particles).
+        boundary_materials: material indices of walls and kinematic bodies.
+        impact_speed: largest expected normal impact speed [m/s] (Hertz contact time).
+    """
+    free = body < 0
+    smallest = {}
+    for mat in np.unique(material[free]):
+        sel = free & (material == mat)
+        k = np.argmin(mass[sel])
+        smallest[int(mat)] = (float(radius[sel][k]), float(mass[sel][k]))
+    params = table.pair_params()
+    bounds = []
+    for a, (ra, ma) in smallest.items():
+        partners = [(b, rb, mb, "particle") for b, (rb, mb) in smallest.items() if b >= a]
+        partners += [(b, math.inf, math.inf, "wall/body") for b in sorted(set(boundary_materials))]
+        for b, rb, mb, kind in partners:
+            m_eff = 1.0 / (1.0 / ma + (0.0 if math.isinf(mb) else 1.0 / mb))
+            r_eff = ra if math.isinf(rb) else ra * rb / (ra + rb)
+            names = f"{table.materials[a].name}-{table.materials[b].name} {kind} contact"
+            p = params[a, b]
+            if spec.contact_law == "hertz_mindlin":
+                mat = table.materials[a]
+                t_r = rayleigh_time(ra, mat.density, mat.shear_modulus, mat.poisson_ratio)
+                bounds.append(StepBound(
+                    f"the Rayleigh time {t_r:.4g} s of the smallest {mat.name} particle (r = {ra:.4g} m)",
+                    RAYLEIGH_LIMIT * t_r, RAYLEIGH_RECOMMENDED * t_r))
+                t_c = hertz_contact_time(m_eff, r_eff, p[law.P_E_STAR], impact_speed)
+                bounds.append(StepBound(
+                    f"the Hertz contact time {t_c:.4g} s of the {names} at {impact_speed:g} m/s",
+                    t_c / STEPS_PER_CONTACT_LIMIT, t_c / STEPS_PER_CONTACT_RECOMMENDED))
+            else:
+                kn = p[law.P_K_N]
+                if spec.contact_law == "linear_hw":
+                    gamma = p[law.P_GAMMA_N]
+                else:
+                    gamma = 2.0 * p[law.P_ZETA_N] * math.sqrt(kn / m_eff)
+                t_c, w0 = linear_contact_time(kn, m_eff, gamma)
+                limit = t_c / STEPS_PER_CONTACT_LIMIT
+                what = f"the linear collision time {t_c:.4g} s of the {names} (m_eff = {m_eff:.4g} kg)"
+                if spec.integrator == "gear":
+                    limit = min(limit, GEAR_OMEGA_DT_LIMIT / w0)
+                    what += f" and Gear stability w0 dt <= {GEAR_OMEGA_DT_LIMIT}"
+                bounds.append(StepBound(what, limit, t_c / STEPS_PER_CONTACT_RECOMMENDED))
+    if not bounds:
+        raise ValueError("no free particles: nothing sets a time step")
+    return TimeStepReport(tuple(bounds))

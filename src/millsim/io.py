@@ -1,0 +1,314 @@
+"""Case output (netCDF4 via xarray) and optional particle snapshots (HDF5 + XDMF).
+
+All quantities are SI; every variable carries a CF-style ``units`` attribute ("1" when
+dimensionless). The run's provenance goes into global attributes so that a case file alone says
+how it was produced.
+"""
+
+from __future__ import annotations
+
+import json
+import operator
+import os
+import platform
+import uuid
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import datetime, timezone
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+import xarray as xr
+
+import millsim
+
+__all__ = ["write_case", "read_case", "case_parameters", "SnapshotWriter"]
+
+# key -> coercion; coercing also rejects e.g. a float seed instead of silently truncating it
+_REQUIRED_PROVENANCE = {
+    "scene": str,
+    "parameters": dict,
+    "seed": operator.index,
+    "dt": float,
+    "steps": operator.index,
+    "wall_time_s": float,
+}
+
+
+@contextmanager
+def _atomic_target(path: Path) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; move it onto ``path`` only if the block succeeds.
+
+    Same directory so that os.replace is an atomic rename on one filesystem. The name is only
+    reserved, not created, so the writer creates the file with the usual umask permissions.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _attr_value(name: str, value: Any) -> Any:
+    """Convert ``value`` to something netCDF4 can store as an attribute."""
+    if value is None:
+        return ""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bool):  # netCDF has no boolean type
+        return int(value)
+    if isinstance(value, (str, bytes, int, float)):
+        return value
+    if isinstance(value, (list, tuple, np.ndarray)):
+        array = np.asarray(value)
+        if array.ndim == 1 and array.dtype.kind in "iuf":
+            return array
+        if array.ndim == 1 and array.dtype.kind == "b":
+            return array.astype(np.int8)
+    raise TypeError(
+        f"attribute {name!r}: {type(value).__name__} is not netCDF-legal "
+        "(nested structures belong in provenance['parameters'])"
+    )
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def _software_attrs() -> dict[str, str]:
+    version = getattr(millsim, "__version__", None)
+    if version is None:
+        try:
+            version = metadata.version("millsim")
+        except metadata.PackageNotFoundError:
+            version = "unknown"
+    try:
+        # metadata rather than import: importing numba costs about a second
+        numba_version = metadata.version("numba")
+    except metadata.PackageNotFoundError:
+        numba_version = "unknown"
+    attrs = {
+        "millsim_version": str(version),
+        "python_version": platform.python_version(),
+        "numpy_version": np.__version__,
+        "numba_version": numba_version,
+    }
+    if callable(getattr(millsim, "provenance_hash", None)):
+        attrs["engine_hash"] = str(millsim.provenance_hash())
+    return attrs
+
+
+def _provenance_attrs(provenance: dict[str, Any]) -> dict[str, Any]:
+    attrs: dict[str, Any] = {}
+    for key, coerce in _REQUIRED_PROVENANCE.items():
+        if key not in provenance:
+            raise ValueError(f"provenance is missing required key {key!r}")
+        try:
+            attrs[key] = coerce(provenance[key])
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"provenance[{key!r}]: {exc}") from exc
+
+    parameters = attrs.pop("parameters")
+    attrs["parameters_json"] = json.dumps(parameters, sort_keys=True, default=_json_default)
+    # scalar copies let ncdump and netCDF tools filter cases without parsing JSON
+    for key, value in parameters.items():
+        if isinstance(value, np.generic):
+            value = value.item()
+        if isinstance(value, (str, int, float)):  # bool is an int
+            attrs[f"param_{key}"] = _attr_value(key, value)
+
+    for key, value in provenance.items():
+        if key not in _REQUIRED_PROVENANCE:
+            attrs[key] = _attr_value(key, value)
+    return attrs
+
+
+def write_case(path: str | os.PathLike[str], data: xr.Dataset, provenance: dict[str, Any]) -> Path:
+    """Write one case to netCDF4 atomically: ``path`` is either complete or untouched.
+
+    Every data variable and coordinate needs a ``units`` attribute. ``provenance`` needs the keys
+    scene, parameters, seed, dt (s), steps and wall_time_s; further keys are stored as they are.
+    """
+    path = Path(path)
+    for name, variable in data.variables.items():
+        # xarray keeps the units of decoded times in .encoding rather than .attrs
+        if "units" not in variable.attrs and "units" not in variable.encoding:
+            raise ValueError(
+                f"variable {name!r} has no 'units' attribute (use '1' if dimensionless)"
+            )
+
+    ds = data.copy(deep=False)
+    for name, variable in ds.variables.items():
+        variable.attrs = {k: _attr_value(f"{name}.{k}", v) for k, v in variable.attrs.items()}
+        if name in ds.coords:
+            # CF forbids missing values in coordinates; xarray would add a NaN _FillValue to floats
+            variable.encoding = {"_FillValue": None, **variable.encoding}
+    ds.attrs = {
+        # param_* of a re-written case would be stale if its parameters changed
+        **{k: _attr_value(k, v) for k, v in data.attrs.items() if not k.startswith("param_")},
+        **_provenance_attrs(provenance),
+        **_software_attrs(),
+        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "Conventions": "CF-1.8",
+    }
+    with _atomic_target(path) as tmp:
+        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4")
+    return path
+
+
+def read_case(path: str | os.PathLike[str]) -> xr.Dataset:
+    """Load a case file fully into memory; the file is closed on return.
+
+    Times are stored as SI seconds, so CF time decoding is turned off to keep them floats.
+    """
+    return xr.load_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
+
+
+def case_parameters(ds: xr.Dataset) -> dict[str, Any]:
+    """The parameter dict of a case, as given to write_case."""
+    try:
+        return json.loads(ds.attrs["parameters_json"])
+    except KeyError:
+        raise ValueError("dataset has no 'parameters_json'; not written by write_case") from None
+
+
+# XDMF names integer types of one byte Char/UChar and all others Int/UInt
+_XDMF_NUMBER_TYPES = {("f", 4): "Float", ("f", 8): "Float", ("i", 1): "Char", ("u", 1): "UChar"}
+_XDMF_NUMBER_TYPES.update({("i", n): "Int" for n in (2, 4, 8)})
+_XDMF_NUMBER_TYPES.update({("u", n): "UInt" for n in (2, 4, 8)})
+
+_SNAPSHOT_UNITS = {"position": "m", "radius": "m", "velocity": "m/s"}
+
+
+class SnapshotWriter:
+    """Particle snapshots to HDF5, one group per frame, plus an XDMF sidecar for ParaView.
+
+    Frames live under ``/frames/NNNNNN`` with datasets position (N x 3, m), radius (N, m),
+    velocity (N x 3, m/s) and any extra per-particle fields; N may differ between frames.
+    In 2-D (``dim=2``) vectors are given as N x 2 and padded with zeros, since XDMF XYZ geometry
+    and Vector attributes need three components. The XDMF file is written on close().
+    """
+
+    def __init__(self, path_h5: str | os.PathLike[str], dim: int):
+        if dim not in (2, 3):
+            raise ValueError(f"dim must be 2 or 3, got {dim}")
+        self.path = Path(path_h5)
+        self.xdmf_path = self.path.with_suffix(".xdmf")
+        self.dim = dim
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._file: h5py.File | None = h5py.File(self.path, "w")
+        self._file.attrs["dim"] = dim
+        self._file.attrs["time_units"] = "s"
+        self._frames = self._file.create_group("frames")
+
+    def __enter__(self) -> SnapshotWriter:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        # also on error: the frames written so far are what one wants to look at
+        self.close()
+
+    def _per_particle(self, name: str, value: Any, count: int) -> np.ndarray:
+        array = np.asarray(value)
+        if array.dtype.kind == "b":
+            array = array.astype(np.uint8)
+        if array.shape == (count, self.dim):
+            array = np.pad(array, ((0, 0), (0, 3 - self.dim)))
+        if array.shape not in ((count,), (count, 3)):
+            expected = f"({count},) or ({count}, {self.dim})"
+            raise ValueError(f"{name}: shape {array.shape}, expected {expected}")
+        if (array.dtype.kind, array.dtype.itemsize) not in _XDMF_NUMBER_TYPES:
+            raise ValueError(f"{name}: dtype {array.dtype} has no XDMF number type")
+        return array
+
+    def write(self, time: float, position: Any, radius: Any, velocity: Any, **fields: Any) -> None:
+        """Append one frame at ``time`` (s). Extra fields are arrays of shape (N,) or (N, dim)."""
+        if self._file is None:
+            raise ValueError("SnapshotWriter is closed")
+        radius = np.asarray(radius, dtype=np.float64)
+        if radius.ndim != 1:
+            raise ValueError(f"radius: shape {radius.shape}, expected (N,)")
+        count = len(radius)
+        arrays = {
+            "position": self._per_particle("position", np.asarray(position, np.float64), count),
+            "radius": self._per_particle("radius", radius, count),
+            "velocity": self._per_particle("velocity", np.asarray(velocity, np.float64), count),
+        }
+        for name in ("position", "velocity"):
+            if arrays[name].ndim != 2:
+                shape = arrays[name].shape
+                raise ValueError(f"{name}: shape {shape}, expected ({count}, {self.dim})")
+        for name, value in fields.items():
+            arrays[name] = self._per_particle(name, value, count)
+
+        group = self._frames.create_group(f"{len(self._frames):06d}")
+        group.attrs["time"] = float(time)
+        for name, array in arrays.items():
+            dataset = group.create_dataset(name, data=array)
+            if name in _SNAPSHOT_UNITS:
+                dataset.attrs["units"] = _SNAPSHOT_UNITS[name]
+        # flushed per frame so that a crashed run still leaves readable frames
+        self._file.flush()
+
+    def close(self) -> None:
+        if self._file is None:
+            return
+        try:
+            self._write_xdmf()
+        finally:
+            self._file.close()
+            self._file = None
+
+    def _write_xdmf(self) -> None:
+        root = ET.Element("Xdmf", Version="3.0")
+        domain = ET.SubElement(root, "Domain")
+        series = ET.SubElement(
+            domain, "Grid", Name="particles", GridType="Collection", CollectionType="Temporal"
+        )
+        for frame_name, group in self._frames.items():
+            count = len(group["radius"])
+            grid = ET.SubElement(series, "Grid", Name=f"frame_{frame_name}", GridType="Uniform")
+            ET.SubElement(grid, "Time", Value=repr(float(group.attrs["time"])))
+            ET.SubElement(
+                grid,
+                "Topology",
+                TopologyType="Polyvertex",
+                NumberOfElements=str(count),
+                NodesPerElement="1",
+            )
+            geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
+            self._data_item(geometry, group["position"])
+            for name, dataset in group.items():
+                if name == "position":
+                    continue
+                kind = "Scalar" if dataset.ndim == 1 else "Vector"
+                attribute = ET.SubElement(
+                    grid, "Attribute", Name=name, AttributeType=kind, Center="Node"
+                )
+                self._data_item(attribute, dataset)
+
+        ET.indent(root)
+        with _atomic_target(self.xdmf_path) as tmp:
+            ET.ElementTree(root).write(tmp, encoding="utf-8", xml_declaration=True)
+
+    def _data_item(self, parent: ET.Element, dataset: h5py.Dataset) -> None:
+        item = ET.SubElement(
+            parent,
+            "DataItem",
+            Dimensions=" ".join(map(str, dataset.shape)),
+            NumberType=_XDMF_NUMBER_TYPES[dataset.dtype.kind, dataset.dtype.itemsize],
+            Precision=str(dataset.dtype.itemsize),
+            Format="HDF",
+        )
+        # relative file name: the XDMF reader resolves it against the XDMF file's directory
+        item.text = f"{self.path.name}:{dataset.name}"
