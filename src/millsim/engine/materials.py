@@ -24,8 +24,8 @@ def check_range(key, value, lo=None, hi=None, lo_open=False, hi_open=False):
     if hi is not None:
         bad |= value >= hi if hi_open else value > hi
     if bad:
-        left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
+        left = "(" if lo_open or lo is None else "["
+        right = ")" if hi_open or hi is None else "]"
         lo_s = "-inf" if lo is None else f"{lo:g}"
         hi_s = "inf" if hi is None else f"{hi:g}"
         raise ValueError(f"{key}: {value:g} is outside the allowed range {left}{lo_s}, {hi_s}{right}")

@@ -1,0 +1,142 @@
+"""What every scene shares: declared parameters with units and ranges, and the scene registry.
+
+A scene is a named recipe that builds a :class:`~millsim.engine.Simulation`, chooses the physics it
+needs, runs it and returns an ``xarray.Dataset`` of its outputs. Parameters are declared once, with
+type, default, unit and allowed range, so the command line, the Snakemake schema and the case file
+all describe the same thing, and bad input is refused with the key and its range before any work.
+"""
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from ..engine.materials import check_range
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    default: Any
+    doc: str
+    units: str = "1"
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple = ()
+
+    @property
+    def kind(self):
+        return type(self.default)
+
+    def parse(self, raw):
+        """Convert a command-line string (or a value) and check it against the declared range."""
+        kind = self.kind
+        if kind is bool:
+            if isinstance(raw, str):
+                low = raw.strip().lower()
+                if low not in ("true", "false", "1", "0", "yes", "no"):
+                    raise ValueError(f"{self.name}: must be true or false, got {raw!r}")
+                value = low in ("true", "1", "yes")
+            else:
+                value = bool(raw)
+        elif kind is int:
+            try:
+                value = int(float(raw)) if float(raw).is_integer() else None
+            except (TypeError, ValueError):
+                value = None
+            if value is None:
+                raise ValueError(f"{self.name}: must be an integer, got {raw!r}")
+        elif kind is float:
+            try:
+                value = float(raw)
+            except (TypeError, ValueError):
+                raise ValueError(f"{self.name}: must be a number, got {raw!r}") from None
+        else:
+            value = str(raw)
+        if self.choices and value not in self.choices:
+            raise ValueError(f"{self.name}: must be one of {list(self.choices)}, got {value!r}")
+        if kind in (int, float) and (self.lo is not None or self.hi is not None):
+            check_range(self.name, value, self.lo, self.hi, self.lo_open, self.hi_open)
+        if kind is float and not math.isfinite(value):
+            raise ValueError(f"{self.name}: must be finite, got {value!r}")
+        return value
+
+    def describe(self):
+        if self.choices:
+            allowed = "|".join(map(str, self.choices))
+        elif self.lo is not None or self.hi is not None:
+            left = "(" if self.lo_open or self.lo is None else "["
+            right = ")" if self.hi_open or self.hi is None else "]"
+            lo = "-inf" if self.lo is None else f"{self.lo:g}"
+            hi = "inf" if self.hi is None else f"{self.hi:g}"
+            allowed = f"{left}{lo}, {hi}{right}"
+        else:
+            allowed = self.kind.__name__
+        return f"{self.name} = {self.default!r} [{self.units}] {allowed}: {self.doc}"
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    summary: str
+    params: tuple
+    run: Callable  # run(values: dict, ctx: RunContext) -> (xarray.Dataset, RunInfo)
+    checks: tuple = field(default=())  # callables(values) raising ValueError on inconsistent combos
+
+    def resolve(self, overrides: dict) -> dict:
+        """Defaults overridden by ``overrides`` (strings or values), each parsed and range-checked."""
+        known = {p.name: p for p in self.params}
+        for key in overrides:
+            if key not in known:
+                raise ValueError(f"{key}: unknown parameter of scene {self.name!r}; known: "
+                                 f"{', '.join(sorted(known))}")
+        values = {p.name: p.parse(overrides[p.name]) if p.name in overrides else p.default
+                  for p in self.params}
+        for check in self.checks:
+            check(values)
+        return values
+
+
+@dataclass
+class RunContext:
+    """How a run reports: progress lines, and optional particle snapshots (HDF5 + XDMF)."""
+
+    progress: bool = False
+    snapshots: Any = None  # a millsim.io.SnapshotWriter, or None
+
+    def snapshot(self, sim):
+        """Write one frame of ``sim`` if snapshots were requested."""
+        if self.snapshots is None:
+            return
+        p = sim.particles
+        self.snapshots.write(sim.time, p.x, p.radius, p.v, angular_velocity=p.w,
+                             kinematic=(p.body >= 0).astype("int32"))
+
+
+@dataclass
+class RunInfo:
+    """What the case file needs to know about how a run went."""
+
+    seed: int
+    dt: float
+    steps: int
+    wall_time_s: float
+    extra: dict = field(default_factory=dict)
+
+
+REGISTRY: dict = {}
+
+
+def register(scene: Scene) -> Scene:
+    REGISTRY[scene.name] = scene
+    return scene
+
+
+def get_scene(name: str) -> Scene:
+    from . import load_all
+
+    load_all()
+    if name not in REGISTRY:
+        raise ValueError(f"scene: unknown scene {name!r}; available: {', '.join(sorted(REGISTRY))}")
+    return REGISTRY[name]

@@ -1,0 +1,158 @@
+"""Scene ``packing``: N spheres settled in a walled box, or tumbling in a rotating drum.
+
+The engine's throughput case (same geometry and material as the LIGGGHTS baseline in
+``shared/reference/peers.md`` part B): a settling stage at a coarse step, then the timed stage at
+``dt``. The drum variant adds a spin-up stage and reports the torque and power the shell delivers.
+A settled state from another code (text file: x y z [vx vy vz] per line, SI) can replace the
+settling stage, so both codes start from the same bed.
+"""
+
+import math
+import time
+
+import numpy as np
+import xarray as xr
+
+from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from .base import Param, RunInfo, Scene, register
+
+PARAMS = (
+    Param("n", 10000, "number of spheres", "1", 1),
+    Param("container", "box", "box: walled square box open at the top; drum: rotating cylinder",
+          choices=("box", "drum")),
+    Param("radius", 1e-3, "sphere radius", "m", 0.0, lo_open=True),
+    Param("density", 2500.0, "sphere density", "kg m-3", 0.0, lo_open=True),
+    Param("youngs_modulus", 5e6, "Young's modulus", "Pa", 0.0, lo_open=True),
+    Param("poisson_ratio", 0.3, "Poisson ratio", "1", -1.0, 0.5, True, True),
+    Param("restitution", 0.5, "coefficient of restitution", "1", 0.0, 1.0, lo_open=True),
+    Param("friction", 0.3, "sliding friction coefficient", "1", 0.0),
+    Param("rolling_friction", 0.0, "rolling friction coefficient (EDEM standard)", "1", 0.0),
+    Param("box_width", 0.044, "box side (box)", "m", 0.0, lo_open=True),
+    Param("drum_radius", 0.04, "drum inner radius (drum)", "m", 0.0, lo_open=True),
+    Param("drum_length", 0.04, "drum length along its horizontal y axis (drum)", "m", 0.0, lo_open=True),
+    Param("drum_omega", 9.5, "drum angular velocity (drum)", "rad s-1"),
+    Param("integrator", "verlet", "time integrator", choices=("verlet", "gear")),
+    Param("skin", 2e-4, "Verlet skin", "m", 0.0, lo_open=True),
+    Param("settle_dt", 1e-5, "time step of the settling and spin-up stages", "s", 0.0, lo_open=True),
+    Param("settle_steps", 25000, "settling steps (skipped with init_file)", "1", 0),
+    Param("spinup_steps", 20000, "drum spin-up steps at settle_dt (drum)", "1", 0),
+    Param("dt", 1e-6, "time step of the timed stage", "s", 0.0, lo_open=True),
+    Param("steps", 20000, "steps of the timed stage", "1", 1),
+    Param("record_every", 1000, "output cadence of the timed stage", "steps", 1),
+    Param("init_file", "", "settled state to start from (x y z [vx vy vz] per line, m and m/s)"),
+    Param("seed", 12345, "random seed of the lattice jitter", "1", 0),
+)
+
+LATTICE = 2.2  # lattice spacing in radii, as in the LIGGGHTS baseline (2.2 mm for r = 1 mm)
+JITTER = 0.09  # lattice jitter in radii
+
+
+def _lattice(values, rng):
+    r = values["radius"]
+    a = LATTICE * r
+    if values["container"] == "box":
+        per_side = max(1, int(values["box_width"] / a))
+        layers = math.ceil(values["n"] / per_side**2)
+        g = np.stack(np.meshgrid(np.arange(per_side), np.arange(per_side), np.arange(layers),
+                                 indexing="ij"), -1).reshape(-1, 3)
+        g = g[np.lexsort((g[:, 0], g[:, 1], g[:, 2]))][: values["n"]]
+        x = (g + 0.5) * a
+    else:
+        big = values["drum_radius"] - r
+        span = np.arange(-big + r, big - r + 1e-12, a)
+        along = np.arange(r * 1.1, values["drum_length"] - r * 1.1 + 1e-12, a)
+        g = np.stack(np.meshgrid(span, along, span, indexing="ij"), -1).reshape(-1, 3)
+        g = g[np.hypot(g[:, 0], g[:, 2]) < big - 0.2 * r]
+        if len(g) < values["n"]:
+            raise ValueError(f"n: {values['n']} spheres do not fit in the drum (room for {len(g)})")
+        # Fill from the bottom: the settled charge starts where it will lie.
+        x = g[np.lexsort((g[:, 0], g[:, 1], g[:, 2]))][: values["n"]]
+    return x + rng.uniform(-JITTER * r, JITTER * r, x.shape)
+
+
+def _walls(values):
+    if values["container"] == "box":
+        w = values["box_width"]
+        return [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="grain"),
+                dict(kind="plane", point=(0, 0, 0), normal=(1, 0, 0), material="grain"),
+                dict(kind="plane", point=(w, 0, 0), normal=(-1, 0, 0), material="grain"),
+                dict(kind="plane", point=(0, 0, 0), normal=(0, 1, 0), material="grain"),
+                dict(kind="plane", point=(0, w, 0), normal=(0, -1, 0), material="grain")]
+    return [dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 1, 0), radius=values["drum_radius"],
+                 omega=0.0, material="grain"),
+            dict(kind="plane", point=(0, 0, 0), normal=(0, 1, 0), material="grain"),
+            dict(kind="plane", point=(0, values["drum_length"], 0), normal=(0, -1, 0), material="grain")]
+
+
+def build(values):
+    """The settled-or-lattice Simulation of this scene (shared with the throughput benchmark)."""
+    rng = np.random.default_rng(values["seed"])
+    mat = Material("grain", values["density"], values["youngs_modulus"], values["poisson_ratio"])
+    table = MaterialTable([mat], {"*": Interaction(restitution=values["restitution"],
+                                                   friction=values["friction"],
+                                                   rolling_friction=values["rolling_friction"])},
+                          "hertz_mindlin")
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", integrator=values["integrator"],
+                       rolling_friction=values["rolling_friction"] > 0, walls=True)
+    v = None
+    if values["init_file"]:
+        data = np.loadtxt(values["init_file"], ndmin=2)
+        if data.shape[1] not in (3, 6):
+            raise ValueError(f"init_file: expected 3 or 6 columns, got {data.shape[1]}")
+        x = data[:, :3]
+        v = data[:, 3:6] if data.shape[1] == 6 else None
+    else:
+        x = _lattice(values, rng)
+    radius = np.full(len(x), values["radius"])
+    return Simulation(spec, table, x=x, radius=radius, material="grain", v=v, walls=_walls(values),
+                      skin=values["skin"], dt=values["settle_dt"], impact_speed=1.0)
+
+
+def run(values, ctx):
+    t_wall = time.perf_counter()
+    sim = build(values)
+    drum = values["container"] == "drum"
+    if not values["init_file"] and values["settle_steps"]:
+        sim.run(values["settle_steps"], chunk=5000, progress=ctx.progress)
+    if drum:
+        sim.walls[0, 8] = values["drum_omega"]
+        if values["spinup_steps"]:
+            sim.run(values["spinup_steps"], chunk=5000, progress=ctx.progress)
+    sim.set_time_step(values["dt"])
+
+    rows = []
+    t_start, work_start = sim.time, float(sim.wall_work[0])
+    impulse_start = sim.wall_impulse[0].copy()
+
+    def observe(s):
+        i, _, _ = s.contact_pairs()
+        rows.append((s.time, s.kinetic_energy(), 2.0 * len(i) / s.n_particles,
+                     float(s.particles.x[s.free, 2].max())))
+        ctx.snapshot(s)
+
+    timed_wall = sim.wall_seconds
+    sim.run(values["steps"], chunk=values["record_every"], observer=observe, progress=ctx.progress)
+    timed_wall = sim.wall_seconds - timed_wall
+    t, ke, z, top = (np.array(c) for c in zip(*rows))
+    elapsed = sim.time - t_start
+    data = {
+        "kinetic_energy": ("time", ke, {"units": "J", "long_name": "kinetic energy of the spheres"}),
+        "contacts_per_particle": ("time", z, {"units": "1", "long_name": "particle-particle contacts per particle"}),
+        "bed_top": ("time", top, {"units": "m", "long_name": "highest sphere centre"}),
+        "particle_steps_per_second": ((), sim.n_particles * values["steps"] / timed_wall,
+                                      {"units": "s-1", "long_name": "throughput of the timed stage"}),
+        "timed_wall_time": ((), timed_wall, {"units": "s", "long_name": "wall time of the timed stage (compiled loop only)"}),
+    }
+    if drum:
+        torque = (sim.wall_impulse[0] - impulse_start)[4] / elapsed
+        data["shell_torque"] = ((), torque, {"units": "N m", "long_name": "mean torque of the charge on the shell about its axis (the drive supplies the opposite)"})
+        data["shell_power"] = ((), (sim.wall_work[0] - work_start) / elapsed,
+                              {"units": "W", "long_name": "mean power the shell puts into the charge"})
+    ds = xr.Dataset(data, coords={"time": ("time", t, {"units": "s", "long_name": "simulated time"})})
+    return ds, RunInfo(seed=values["seed"], dt=values["dt"], steps=sim.step,
+                       wall_time_s=time.perf_counter() - t_wall,
+                       extra={"list_rebuilds": int(sim.counters[0]), "n_particles": sim.n_particles})
+
+
+register(Scene("packing", "spheres settled in a box or tumbling in a rotating drum (benchmark case)",
+               PARAMS, run))
