@@ -29,7 +29,8 @@ from .neighbours import build_verlet, min_image, wrap_periodic
 
 BLOCK = 256  # particles per reduction block (fixed, so sums do not depend on the thread count)
 
-# Guard codes written to err[0]; err = [code, step, particle, partner].
+# Guard codes written to err[0]; err = [code, step, particle, partner]. With threads the particle
+# recorded is whichever got there first; the Python side names a deterministic one.
 ERR_OVERLAP, ERR_NONFINITE, ERR_SPEED = 1, 2, 3
 
 # Gear 6-value corrector for velocity-dependent forces (Allen & Tildesley table E.2).
@@ -38,11 +39,30 @@ GEAR_C0, GEAR_C1, GEAR_C3, GEAR_C4, GEAR_C5 = 3.0 / 16.0, 251.0 / 360.0, 11.0 / 
 
 @njit(inline="always", cache=True)
 def _verlet_drift(i, dt, x, v, w, acc, alpha):
-    """First half kick and drift of velocity Verlet (positions to t + dt, velocities to t + dt/2)."""
+    """Velocity Verlet drift, leaving the velocities *predicted* to t + dt (v + dt a).
+
+    Forces that depend on velocity (dashpots, friction) then see a second-order estimate of
+    v(t + dt) instead of the half-step velocity, which would make the scheme first order for them;
+    :func:`_verlet_kick` turns the prediction into the exact Verlet velocity, so for
+    velocity-independent forces this is velocity Verlet to the letter.
+    """
     for a in range(3):
-        v[i, a] += 0.5 * dt * acc[i, a]
-        w[i, a] += 0.5 * dt * alpha[i, a]
-        x[i, a] += dt * v[i, a]
+        x[i, a] += dt * (v[i, a] + 0.5 * dt * acc[i, a])
+        v[i, a] += dt * acc[i, a]
+        w[i, a] += dt * alpha[i, a]
+
+
+@njit(inline="always", cache=True)
+def _verlet_kick(i, dt, v, w, acc, alpha, a0, a1, a2, b0, b1, b2):
+    """Second half kick: v(t+dt) = v(t) + dt (a(t) + a(t+dt)) / 2, from the predicted velocity."""
+    v[i, 0] += 0.5 * dt * (a0 - acc[i, 0])
+    v[i, 1] += 0.5 * dt * (a1 - acc[i, 1])
+    v[i, 2] += 0.5 * dt * (a2 - acc[i, 2])
+    w[i, 0] += 0.5 * dt * (b0 - alpha[i, 0])
+    w[i, 1] += 0.5 * dt * (b1 - alpha[i, 1])
+    w[i, 2] += 0.5 * dt * (b2 - alpha[i, 2])
+    acc[i, 0], acc[i, 1], acc[i, 2] = a0, a1, a2
+    alpha[i, 0], alpha[i, 1], alpha[i, 2] = b0, b1, b2
 
 
 @njit(inline="always", cache=True)
@@ -128,10 +148,12 @@ def build_chunk_runner(spec):
                 v[i, 0], v[i, 1], v[i, 2] = u0, u1, u2
 
         steps_done = 0
-        # Per-slot results: force on i, n x F_t (torque on either body is -r n x F_t), and the
-        # rolling torques on i and j when rolling friction is compiled in.
+        # Per-slot results: force on i, n x F_t and the overlap (torque on either body is
+        # -(r - xi/2) n x F_t: lever arms that add up to the distance conserve angular momentum),
+        # and the rolling torques on i and j when rolling friction is compiled in.
         pf = np.empty((nbr.shape[0], 3))
         pc = np.empty_like(pf)
+        pxi = np.empty(nbr.shape[0])
         proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
         for step in range(n_steps):
             # ---- pass 1: contact forces per Verlet slot --------------------------------------
@@ -155,6 +177,7 @@ def build_chunk_runner(spec):
                         for a in range(3):
                             pf[k, a] = 0.0
                             pc[k, a] = 0.0
+                        pxi[k] = 0.0
                         if ROLLING:
                             proll[k, :, :] = 0.0
                         continue
@@ -162,12 +185,15 @@ def build_chunk_runner(spec):
                     n0, n1, n2 = d0 / dist, d1 / dist, d2 / dist
                     xi = rsum - dist
                     ri, rj = radius[i], radius[j]
-                    if xi > max_overlap * min(ri, rj):
+                    if xi > max_overlap * min(ri, rj) and err[0] == 0:
                         err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
-                    # Relative velocity of i's contact point w.r.t. j's: dv - (ri wi + rj wj) x n.
-                    s0 = ri * w[i, 0] + rj * w[j, 0]
-                    s1 = ri * w[i, 1] + rj * w[j, 1]
-                    s2 = ri * w[i, 2] + rj * w[j, 2]
+                    # Relative velocity of i's contact point w.r.t. j's: dv - (ai wi + aj wj) x n,
+                    # lever arms a = r - xi/2 (the contact point sits mid-overlap).
+                    ai = ri - 0.5 * xi
+                    aj = rj - 0.5 * xi
+                    s0 = ai * w[i, 0] + aj * w[j, 0]
+                    s1 = ai * w[i, 1] + aj * w[j, 1]
+                    s2 = ai * w[i, 2] + aj * w[j, 2]
                     vr0 = v[i, 0] - v[j, 0] - (s1 * n2 - s2 * n1)
                     vr1 = v[i, 1] - v[j, 1] - (s2 * n0 - s0 * n2)
                     vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
@@ -188,6 +214,7 @@ def build_chunk_runner(spec):
                     pc[k, 0] = n1 * f2 - n2 * f1
                     pc[k, 1] = n2 * f0 - n0 * f2
                     pc[k, 2] = n0 * f1 - n1 * f0
+                    pxi[k] = xi
                     if ROLLING:
                         # EDEM "standard": constant torque opposing each body's own spin.
                         mr = p[law.P_MU_ROLL] * fn_el
@@ -210,13 +237,15 @@ def build_chunk_runner(spec):
                     R0 = 0.0
                     R1 = 0.0
                     R2 = 0.0
+                    ri = radius[i]
                     for k in range(start[i], start[i + 1]):
                         F0 += pf[k, 0]
                         F1 += pf[k, 1]
                         F2 += pf[k, 2]
-                        C0 += pc[k, 0]
-                        C1 += pc[k, 1]
-                        C2 += pc[k, 2]
+                        arm = ri - 0.5 * pxi[k]
+                        C0 += arm * pc[k, 0]
+                        C1 += arm * pc[k, 1]
+                        C2 += arm * pc[k, 2]
                         if ROLLING:
                             R0 += proll[k, 0, 0]
                             R1 += proll[k, 0, 1]
@@ -226,16 +255,17 @@ def build_chunk_runner(spec):
                         F0 -= pf[k, 0]
                         F1 -= pf[k, 1]
                         F2 -= pf[k, 2]
-                        C0 += pc[k, 0]
-                        C1 += pc[k, 1]
-                        C2 += pc[k, 2]
+                        arm = ri - 0.5 * pxi[k]
+                        C0 += arm * pc[k, 0]
+                        C1 += arm * pc[k, 1]
+                        C2 += arm * pc[k, 2]
                         if ROLLING:
                             R0 += proll[k, 1, 0]
                             R1 += proll[k, 1, 1]
                             R2 += proll[k, 1, 2]
-                    T0 = R0 - radius[i] * C0
-                    T1 = R1 - radius[i] * C1
-                    T2 = R2 - radius[i] * C2
+                    T0 = R0 - C0
+                    T1 = R1 - C1
+                    T2 = R2 - C2
                     if WALLS and body[i] < 0:
                         for iw in range(n_walls):
                             xi, n0, n1, n2, u0, u1, u2 = wall_contact(walls[iw], x[i, 0], x[i, 1],
@@ -245,12 +275,12 @@ def build_chunk_runner(spec):
                                 wall_hist[i, iw, 1] = 0.0
                                 wall_hist[i, iw, 2] = 0.0
                                 continue
-                            ri = radius[i]
-                            if xi > max_overlap * ri:
+                            if xi > max_overlap * ri and err[0] == 0:
                                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
-                            vr0 = v[i, 0] - u0 - ri * (w[i, 1] * n2 - w[i, 2] * n1)
-                            vr1 = v[i, 1] - u1 - ri * (w[i, 2] * n0 - w[i, 0] * n2)
-                            vr2 = v[i, 2] - u2 - ri * (w[i, 0] * n1 - w[i, 1] * n0)
+                            ai = ri - 0.5 * xi
+                            vr0 = v[i, 0] - u0 - ai * (w[i, 1] * n2 - w[i, 2] * n1)
+                            vr1 = v[i, 1] - u1 - ai * (w[i, 2] * n0 - w[i, 0] * n2)
+                            vr2 = v[i, 2] - u2 - ai * (w[i, 0] * n1 - w[i, 1] * n0)
                             m_eff = 1.0 / inv_mass[i]
                             p = pair_params[material[i], int(walls[iw, 9])]
                             hist = wall_hist[i]
@@ -267,9 +297,9 @@ def build_chunk_runner(spec):
                             g0 = fn * n0 + f0
                             g1 = fn * n1 + f1
                             g2 = fn * n2 + f2
-                            c0 = -ri * (n1 * f2 - n2 * f1)
-                            c1 = -ri * (n2 * f0 - n0 * f2)
-                            c2 = -ri * (n0 * f1 - n1 * f0)
+                            c0 = -ai * (n1 * f2 - n2 * f1)
+                            c1 = -ai * (n2 * f0 - n0 * f2)
+                            c2 = -ai * (n0 * f1 - n1 * f0)
                             if ROLLING:
                                 wn = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
                                 if wn > 0.0:
@@ -284,9 +314,9 @@ def build_chunk_runner(spec):
                             T1 += c1
                             T2 += c2
                             # Reaction on the wall: force, torque about its point p, power given.
-                            cp0 = x[i, 0] - ri * n0 - walls[iw, 1]
-                            cp1 = x[i, 1] - ri * n1 - walls[iw, 2]
-                            cp2 = x[i, 2] - ri * n2 - walls[iw, 3]
+                            cp0 = x[i, 0] - ai * n0 - walls[iw, 1]
+                            cp1 = x[i, 1] - ai * n1 - walls[iw, 2]
+                            cp2 = x[i, 2] - ai * n2 - walls[iw, 3]
                             wp = wall_part[blk, iw]
                             wp[0] -= g0
                             wp[1] -= g1
@@ -311,15 +341,11 @@ def build_chunk_runner(spec):
                             if not last:
                                 _gear_predict(i, dt, x, v, w, acc, alpha, gear)
                         else:
-                            acc[i, 0], acc[i, 1], acc[i, 2] = a0, a1, a2
-                            alpha[i, 0], alpha[i, 1], alpha[i, 2] = b0, b1, b2
-                            for a in range(3):
-                                v[i, a] += 0.5 * dt * acc[i, a]
-                                w[i, a] += 0.5 * dt * alpha[i, a]
+                            _verlet_kick(i, dt, v, w, acc, alpha, a0, a1, a2, b0, b1, b2)
                             if not last:
                                 _verlet_drift(i, dt, x, v, w, acc, alpha)
                         sp2 = v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2
-                        if not (sp2 <= v_max2):
+                        if not (sp2 <= v_max2) and err[0] == 0:
                             err[0] = ERR_SPEED if sp2 == sp2 else ERR_NONFINITE
                             err[1], err[2], err[3] = step, i, -1
                     else:
@@ -382,6 +408,7 @@ def build_chunk_runner(spec):
                 rebuild[0] = 0
                 pf = np.empty((nbr.shape[0], 3))
                 pc = np.empty_like(pf)
+                pxi = np.empty(nbr.shape[0])
                 proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
                 counters[0] += 1
         counters[1] += steps_done

@@ -244,21 +244,33 @@ class Simulation:
             raise SimulationError(self._describe_error(err))
 
     def _describe_error(self, err):
+        """One line naming the step, the particle(s) and the limit that was crossed.
+
+        The kernel stops at the end of the step where a guard fired; the culprit is re-derived
+        here so that the message does not depend on which thread saw it first.
+        """
         code, step, i, j = (int(e) for e in err)
-        step_abs = self.step - 1
-        where = f"step {step_abs} (t = {self.time:.6g} s)"
+        where = f"step {self.step - 1} (t = {self.time:.6g} s)"
         p = self.particles
         if code == ERR_OVERLAP:
+            pi, pj, overlap = self.contact_pairs()
+            if len(pi):
+                k = int(np.argmax(overlap / np.minimum(p.radius[pi], p.radius[pj])))
+                i, j = int(pi[k]), int(pj[k])
             partner = f"wall {-1 - j}" if j < 0 else f"particle {j}"
             return (f"{where}: overlap between particle {i} and {partner} exceeds "
                     f"{self.max_overlap:g} of the smaller radius; reduce dt (now {self.dt:.4g} s, "
                     f"limit {self.dt_report.limit:.4g} s) or check the initial state")
-        speed = float(np.linalg.norm(p.v[i]))
-        if code == ERR_NONFINITE:
-            return f"{where}: particle {i} has a non-finite velocity (NaN/inf)"
+        bad = ~np.isfinite(p.v).all(1) | ~np.isfinite(p.x).all(1)
+        if code == ERR_NONFINITE or bad.any():
+            first = int(np.flatnonzero(bad)[0]) if bad.any() else i
+            return (f"{where}: particle {first} has a non-finite velocity (NaN/inf); "
+                    f"{int(bad.sum())} particle(s) affected")
         if code == ERR_SPEED:
-            return (f"{where}: runaway kinetic energy, particle {i} moves at {speed:.4g} m/s, above "
-                    f"v_max = {self.v_max:.4g} m/s")
+            speed = np.linalg.norm(p.v, axis=1)
+            i = int(np.argmax(np.where(self.free, speed, 0.0)))
+            return (f"{where}: runaway kinetic energy, particle {i} moves at {speed[i]:.4g} m/s, "
+                    f"above v_max = {self.v_max:.4g} m/s")
         return f"{where}: guard code {code} on particle {i}"
 
     def set_time_step(self, dt):

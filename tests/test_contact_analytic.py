@@ -1,0 +1,81 @@
+"""Binary impacts against closed-form contact mechanics (ballmill.md section 5, tavares.md 13)."""
+
+import math
+
+import pytest
+
+from millsim.scenes.base import RunContext, get_scene
+
+TOL = 0.005  # 0.5 %, the issue's tolerance
+
+
+def run_collision(**overrides):
+    scene = get_scene("collision")
+    ds, _ = scene.run(scene.resolve(overrides), RunContext())
+    return ds
+
+
+@pytest.mark.parametrize("end_of_contact", ["force", "overlap"])
+@pytest.mark.parametrize("target", ["particle", "wall"])
+def test_linear_hw_restitution_and_contact_time(end_of_contact, target):
+    """Seed 000 law, 2D disks: e and t_c for both end-of-contact conventions."""
+    ds = run_collision(contact_law="linear_hw", dim=2, end_of_contact=end_of_contact, target=target)
+    assert float(ds.restitution) == pytest.approx(float(ds.restitution_analytic), rel=TOL)
+    assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
+
+
+def test_linear_conventions_differ_as_predicted():
+    """Clipping the force ends the contact earlier and gives a larger e (Schwager & Poeschel)."""
+    a = run_collision(contact_law="linear_hw", dim=2, end_of_contact="overlap")
+    b = run_collision(contact_law="linear_hw", dim=2, end_of_contact="force")
+    assert float(b.contact_time) < float(a.contact_time)
+    assert float(b.restitution) > float(a.restitution)
+
+
+def test_seed000_numbers_for_1cm_disks():
+    """Independent numbers of ballmill.md table 5: R = 1 cm, rho = 2 g/cm3, unit thickness, pair."""
+    ds = run_collision(contact_law="linear_hw", dim=2, radius=0.01, density=2000.0, thickness=0.01,
+                       normal_stiffness=8e3, normal_damping_rate=800.0, end_of_contact="overlap")
+    assert float(ds.contact_time) == pytest.approx(2.034e-3, rel=2e-3)
+    assert float(ds.restitution) == pytest.approx(0.443, rel=2e-3)
+    ds = run_collision(contact_law="linear_hw", dim=2, radius=0.01, density=2000.0, thickness=0.01,
+                       normal_stiffness=8e3, normal_damping_rate=800.0, end_of_contact="force")
+    assert float(ds.contact_time) == pytest.approx(1.706e-3, rel=2e-3)
+    assert float(ds.restitution) == pytest.approx(0.506, rel=2e-3)
+
+
+@pytest.mark.parametrize("integrator", ["verlet", "gear"])
+def test_linear_history_wall(integrator):
+    ds = run_collision(contact_law="linear_history", target="wall", restitution=0.7,
+                       integrator=integrator)
+    assert float(ds.restitution) == pytest.approx(float(ds.restitution_analytic), rel=TOL)
+    assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
+
+
+def test_hertz_elastic_contact_time():
+    """Undamped Hertz: t_c = 2.9433 xi_max / v, independent of the code."""
+    for speed in (0.1, 1.0, 5.0):
+        ds = run_collision(contact_law="hertz_mindlin", restitution=1.0, speed=speed)
+        assert float(ds.restitution) == pytest.approx(1.0, abs=1e-3)
+        assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
+        expected = 2.8683 * ((2500 * 4 / 3 * math.pi * 1e-9 / 2) ** 2
+                             / (0.5e-3 * (5e6 / (2 * (1 - 0.09))) ** 2 * speed)) ** 0.2
+        assert float(ds.contact_time_analytic) == pytest.approx(expected, rel=1e-3)
+
+
+@pytest.mark.parametrize("restitution", [0.3, 0.5, 0.9])
+def test_hertz_restitution_unclipped_equals_input(restitution):
+    """The EDEM damping law returns the input e when the force may turn attractive."""
+    ds = run_collision(contact_law="hertz_mindlin", restitution=restitution, end_of_contact="overlap",
+                       target="wall")
+    assert float(ds.restitution) == pytest.approx(restitution, rel=TOL)
+
+
+@pytest.mark.parametrize("restitution", [0.3, 0.5, 0.9])
+def test_hertz_restitution_clipped_matches_model_ode(restitution):
+    ds = run_collision(contact_law="hertz_mindlin", restitution=restitution)
+    assert float(ds.restitution) == pytest.approx(float(ds.restitution_analytic), rel=TOL)
+    assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
+    # Independent of impact speed (a property of this damping law).
+    fast = run_collision(contact_law="hertz_mindlin", restitution=restitution, speed=4.0)
+    assert float(fast.restitution) == pytest.approx(float(ds.restitution), rel=TOL)

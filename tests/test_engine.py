@@ -1,0 +1,232 @@
+"""Neighbour lists, determinism, guards, time-step refusal, bodies, adding and removing particles."""
+
+import math
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from helpers import random_gas
+from millsim.engine import (Interaction, Material, MaterialTable, PhysicsSpec, Simulation,
+                            SimulationError, TimeStepError)
+from millsim.engine.neighbours import brute_force_pairs, build_verlet
+from millsim.engine.state import empty_contacts
+
+
+def _table(law="hertz_mindlin", **inter):
+    return MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(**inter)}, law)
+
+
+def _pairs(start, nbr):
+    return {(i, int(j)) for i in range(len(start) - 1) for j in nbr[start[i]:start[i + 1]]}
+
+
+@pytest.mark.parametrize("dim,periodic", [(3, False), (3, True), (2, False), (2, True)])
+def test_verlet_list_equals_brute_force(dim, periodic):
+    rng = np.random.default_rng(11)
+    n, box = 400, 0.03
+    x = rng.uniform(0, box, (n, 3))
+    if dim == 2:
+        x[:, 2] = 0
+    r = rng.uniform(0.3e-3, 1.5e-3, n)  # polydisperse, overlaps allowed: geometry only
+    body = np.where(rng.random(n) < 0.2, 0, -1).astype(np.int32)
+    box_len = np.array([box, box, box if dim == 3 else 0.0]) if periodic else np.zeros(3)
+    skin = 0.4e-3
+    c = empty_contacts(n, 3)
+    start, nbr, state, rev_start, rev_slot = build_verlet(x, r, body, skin, dim, np.zeros(3),
+                                                          box_len, c.start, c.nbr, c.state)
+    assert _pairs(start, nbr) == brute_force_pairs(x, r, body, skin, box_len)
+    assert all((np.diff(nbr[start[i]:start[i + 1]]) > 0).all() for i in range(n))  # sorted rows
+    # The reverse index lists every slot exactly once, under its j partner.
+    assert sorted(rev_slot.tolist()) == list(range(len(nbr)))
+    for j in range(n):
+        assert (nbr[rev_slot[rev_start[j]:rev_start[j + 1]]] == j).all()
+
+
+def test_contact_state_survives_rebuild():
+    rng = np.random.default_rng(2)
+    n = 200
+    x = rng.uniform(0, 0.02, (n, 3))
+    r = np.full(n, 1e-3)
+    body = np.full(n, -1, dtype=np.int32)
+    c = empty_contacts(n, 3)
+    args = (r, body, 2e-4, 3, np.zeros(3), np.zeros(3))
+    start, nbr, state, *_ = build_verlet(x, *args, c.start, c.nbr, c.state)
+    state[:] = rng.random(state.shape)
+    remember = {p: state[k].copy() for k, p in enumerate(sorted(_pairs(start, nbr)))}
+    x2 = x + rng.normal(0, 5e-5, x.shape)
+    s2, n2, st2, *_ = build_verlet(x2, *args, start, nbr, state)
+    new_pairs = sorted(_pairs(s2, n2))
+    for k, p in enumerate(new_pairs):
+        if p in remember:
+            np.testing.assert_array_equal(st2[k], remember[p])
+        else:
+            assert (st2[k] == 0).all()
+
+
+def _dense_bed(n, seed=4):
+    """Spheres dropped in a box: contacts, walls and list rebuilds all active."""
+    rng = np.random.default_rng(seed)
+    side = int(math.ceil(n ** (1 / 3)))
+    g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3)[:n]
+    x = (g + 0.5) * 2.1e-3 + rng.uniform(-1e-4, 1e-4, (n, 3))
+    w = side * 2.1e-3
+    walls = [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")]
+    walls += [dict(kind="plane", point=p, normal=nv, material="m") for p, nv in
+              [((0, 0, 0), (1, 0, 0)), ((w, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
+               ((0, w, 0), (0, -1, 0))]]
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True)
+    return Simulation(spec, _table(restitution=0.5, friction=0.3), x=x, radius=np.full(n, 1e-3),
+                      material="m", v=rng.normal(0, 0.05, (n, 3)), walls=walls, dt=2e-5)
+
+
+def test_same_numbers_on_one_and_two_threads():
+    """Fixed-block reductions: bit-identical trajectories whatever the thread count."""
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs 2 threads")
+    runs = []
+    for threads in (1, 2):
+        sim = _dense_bed(2600)  # above the serial threshold, so 2 threads really run in parallel
+        sim.run(400, chunk=200, threads=threads)
+        runs.append((sim.particles.x.copy(), sim.particles.w.copy(), sim.wall_impulse.copy()))
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_same_seed_same_numbers():
+    a, b = _dense_bed(300, seed=9), _dense_bed(300, seed=9)
+    a.run(500)
+    b.run(500)
+    np.testing.assert_array_equal(a.particles.x, b.particles.x)
+
+
+def test_time_step_above_limit_is_refused():
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
+    kw = dict(x=[[0, 0, 0], [3e-3, 0, 0]], radius=[1e-3, 1e-3], material="m")
+    sim = Simulation(spec, _table(), **kw)
+    limit = sim.dt_report.limit
+    with pytest.raises(TimeStepError, match="stability limit") as info:
+        Simulation(spec, _table(), dt=1.01 * limit, **kw)
+    assert "Rayleigh" in str(info.value) or "Hertz contact time" in str(info.value)
+    assert f"{limit:.4g}" in str(info.value)
+    with pytest.raises(TimeStepError):
+        sim.set_time_step(2 * limit)
+    sim.set_time_step(limit)  # the limit itself is allowed
+
+
+def test_limit_shrinks_when_fragments_appear():
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
+    sim = Simulation(spec, _table(), x=[[0, 0, 0]], radius=[2e-3], material="m")
+    before = sim.dt_report.limit
+    sim.add_particles([[0.01, 0, 0]], [1e-4], "m")
+    assert sim.dt_report.limit < before / 5
+    assert sim.dt <= sim.dt_report.limit
+
+
+def test_nan_guard_names_particle_and_step():
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
+    x = [[0.01 * k, 0, 0] for k in range(10)]
+    sim = Simulation(spec, _table(), x=x, radius=np.full(10, 1e-3), material="m")
+    sim.run(10)
+    sim.particles.v[7, 0] = np.nan
+    with pytest.raises(SimulationError, match=r"step 10 .*particle 7 has a non-finite"):
+        sim.run(10)
+
+
+def test_nan_spreading_through_contacts_is_caught_in_its_step():
+    sim = _dense_bed(50)
+    sim.run(10)
+    sim.particles.v[7, 0] = np.nan
+    with pytest.raises(SimulationError, match=r"step 10 .*non-finite"):
+        sim.run(10)
+
+
+def test_overlap_guard():
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
+    sim = Simulation(spec, _table(), x=[[0, 0, 0], [1.2e-3, 0, 0]], radius=[1e-3, 1e-3], material="m",
+                     max_overlap=0.3)
+    with pytest.raises(SimulationError, match=r"step 0 .*particle 0 and particle 1.*0.3 of the smaller radius"):
+        sim.run(5)
+
+
+def test_runaway_speed_guard():
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
+    sim = Simulation(spec, _table(), x=[[0, 0, 0]], radius=[1e-3], material="m", v=[[300.0, 0, 0]],
+                     v_max=100.0)
+    with pytest.raises(SimulationError, match="runaway kinetic energy, particle 0"):
+        sim.run(5)
+
+
+def test_remove_particles_keeps_contact_history():
+    sim = _dense_bed(300)
+    sim.run(1500)
+    p_before = {}
+    i, j, _ = sim.contact_pairs()
+    c = sim.contacts
+    slot = {(int(a), int(b)): k for a in range(sim.n_particles) for k, b in
+            zip(range(c.start[a], c.start[a + 1]), c.nbr[c.start[a]:c.start[a + 1]])}
+    for a, b in zip(i, j):
+        p_before[(int(a), int(b))] = c.state[slot[(int(a), int(b))]].copy()
+    remove = np.zeros(sim.n_particles, bool)
+    remove[::7] = True
+    new_index = np.cumsum(~remove) - 1
+    sim.remove_particles(remove)
+    c = sim.contacts
+    slot = {(int(a), int(b)): k for a in range(sim.n_particles) for k, b in
+            zip(range(c.start[a], c.start[a + 1]), c.nbr[c.start[a]:c.start[a + 1]])}
+    kept = [(a, b) for (a, b) in p_before if not remove[a] and not remove[b]]
+    assert len(kept) > 50
+    for a, b in kept:
+        np.testing.assert_array_equal(c.state[slot[(new_index[a], new_index[b])]], p_before[(a, b)])
+    sim.run(100)  # and the run goes on
+
+
+def test_kinematic_body_carries_weight_and_follows_its_motion():
+    """A sphere resting on a static 'anvil' body: the body receives m g; a rotating body's
+    particles follow the prescribed rotation exactly."""
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", bodies=True)
+    r = 1e-3
+    anvil = [[dx, dy, -r] for dx in (-1e-3, 1e-3) for dy in (-1e-3, 1e-3)]
+    x = anvil + [[0, 0, 0.8e-3]]
+    spinner = [[0.02, 0, 0], [0.02 + 3e-3, 0, 0]]
+    x = np.array(x + spinner)
+    body = [0, 0, 0, 0, -1, 1, 1]
+    bodies = [dict(kind="rotate", center=(0, 0, 0), axis=(0, 0, 1), rate=0.0),
+              dict(kind="rotate", center=(0.02, 0, 0), axis=(0, 0, 1), rate=10.0)]
+    sim = Simulation(spec, _table(restitution=0.3, friction=0.5), x=x, radius=np.full(7, r),
+                     material="m", body=body, bodies=bodies)
+    sim.run(int(0.15 / sim.dt), chunk=2000)
+    m = sim.masses()[4]
+    assert sim.body_load[0, 2] == pytest.approx(-m * 9.81, rel=1e-3)
+    theta = 10.0 * sim.time
+    expected = np.array([0.02 + 3e-3 * math.cos(theta), 3e-3 * math.sin(theta), 0])
+    np.testing.assert_allclose(sim.particles.x[6], expected, atol=1e-12)
+
+
+DRY_SCENE = textwrap.dedent("""
+    import numpy as np
+    from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+    from millsim.engine import contact
+    spec = PhysicsSpec(dim=2, contact_law="linear_hw", gravity=False)
+    table = MaterialTable([Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3,
+        normal_damping_rate=10.0, tangential_damping_rate=10.0)}, "linear_hw")
+    sim = Simulation(spec, table, x=[[0, 0], [2.1e-3, 0]], radius=[1e-3, 1e-3], material="m",
+                     v=[[0.05, 0], [-0.05, 0]], thickness=0.01)
+    sim.run(100)
+    print(len(contact.linear_hw.signatures), len(contact.hertz_mindlin.signatures),
+          len(contact.linear_history.signatures))
+""")
+
+
+def test_scene_compiles_only_the_physics_it_uses(tmp_path):
+    """A linear_hw scene never compiles the Hertz-Mindlin or spring-history kernels (fresh cache)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", DRY_SCENE], env=env, capture_output=True, text=True,
+                         check=True)
+    used, hertz, history = map(int, out.stdout.split())
+    assert used == 1 and hertz == 0 and history == 0
