@@ -13,10 +13,14 @@ Conventions (shared with the rest of the engine):
 - ``hist`` is the contact's tangential spring (3 values), updated in place; laws without a spring
   ignore it.
 
+The laws are separate compiled functions (LLVM inlines them): a step loop whose spec does not use
+a law never types or compiles it, which the tests check.
+
 Parameter rows (``p``) hold SI values, built by :mod:`millsim.engine.materials`:
 - ``LINEAR_HW`` (seed 000, Haff-Werner friction): k_n [N/m], gamma_n [1/s], gamma_t [1/s], mu.
 - ``LINEAR_HISTORY`` (seed 004): k_n [N/m], k_t [N/m], zeta_n, zeta_t (damping ratios), mu.
-- ``HERTZ_MINDLIN`` (seed 002, EDEM no-slip form): E* [Pa], G* [Pa], 2 sqrt(5/6) |beta|, mu, mu_r.
+- ``HERTZ_MINDLIN`` (seed 002, EDEM no-slip form): E* [Pa], G* [Pa], 2 sqrt(5/6) |beta|, mu, mu_r,
+  and sqrt(2 E*), sqrt(8 G*) precomputed so that a contact costs two square roots.
 """
 
 import math
@@ -33,20 +37,23 @@ LAW_HAS_SPRING = {"linear_hw": False, "linear_history": True, "hertz_mindlin": T
 # Column layout of a parameter row (same length for every law so one table serves all).
 P_K_N, P_GAMMA_N, P_GAMMA_T, P_MU_HW = 0, 1, 2, 3
 P_K_T, P_ZETA_N, P_ZETA_T, P_MU_LIN = 1, 2, 3, 4
-P_E_STAR, P_G_STAR, P_BETA_TERM, P_MU_HM, P_MU_ROLL = 0, 1, 2, 3, 4
-N_PARAMS = 6
+P_E_STAR, P_G_STAR, P_BETA_TERM, P_MU_HM, P_MU_ROLL, P_SQRT_2E, P_SQRT_8G = 0, 1, 2, 3, 4, 5, 6
+N_PARAMS = 8
 
 TWO_SQRT_5_6 = 2.0 * math.sqrt(5.0 / 6.0)
 
+# Fast-math without the no-NaN/no-inf assumptions, so that the engine's NaN guard still sees NaN.
+FAST = {"contract", "arcp", "afn", "nsz", "reassoc"}
 
-@njit(inline="always", cache=True)
+
+@njit(inline="always", cache=True, fastmath=FAST)
 def _split(n0, n1, n2, v0, v1, v2):
     """Normal speed and tangential velocity components of vrel."""
     vn = v0 * n0 + v1 * n1 + v2 * n2
     return vn, v0 - vn * n0, v1 - vn * n1, v2 - vn * n2
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True, fastmath=FAST)
 def linear_hw(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip):
     """Linear spring-dashpot with Haff-Werner friction F_T = -min(m_eff gamma_t |v_t|, mu F_N) t_hat."""
     vn, t0, t1, t2 = _split(n0, n1, n2, v0, v1, v2)
@@ -61,7 +68,7 @@ def linear_hw(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip):
     return fn, s * t0, s * t1, s * t2
 
 
-@njit(inline="always", cache=True)
+@njit(inline="always", cache=True, fastmath=FAST)
 def _spring_friction(kt, ct, mu_fn, t0, t1, t2, n0, n1, n2, hist, k, dt):
     """Tangential spring + dashpot with Coulomb limit; returns the tangential force on i.
 
@@ -74,13 +81,14 @@ def _spring_friction(kt, ct, mu_fn, t0, t1, t2, n0, n1, n2, hist, k, dt):
     h2 = hist[k, 2]
     hn = h0 * n0 + h1 * n1 + h2 * n2
     if hn != 0.0:
-        old = h0 * h0 + h1 * h1 + h2 * h2
         h0 -= hn * n0
         h1 -= hn * n1
         h2 -= hn * n2
         new = h0 * h0 + h1 * h1 + h2 * h2
-        if new > 0.0:
-            scale = math.sqrt(old / new)
+        if hn * hn < 0.01 * new:
+            # Restore the length after a small rotation of the contact plane: sqrt(1 + hn^2/new)
+            # to second order. A spring (nearly) along the normal is round-off and is dropped.
+            scale = 1.0 + 0.5 * hn * hn / new
             h0 *= scale
             h1 *= scale
             h2 *= scale
@@ -103,7 +111,7 @@ def _spring_friction(kt, ct, mu_fn, t0, t1, t2, n0, n1, n2, hist, k, dt):
     return f0, f1, f2
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True, fastmath=FAST)
 def linear_history(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip, hist, k, dt):
     """Linear spring-dashpot, damping from a damping ratio, tangential spring with Coulomb limit."""
     vn, t0, t1, t2 = _split(n0, n1, n2, v0, v1, v2)
@@ -117,7 +125,7 @@ def linear_history(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip, hist, k, dt):
     return fn, f0, f1, f2
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True, fastmath=FAST)
 def hertz_mindlin(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt):
     """Hertz-Mindlin no-slip with viscoelastic damping from the restitution coefficient (EDEM form).
 
@@ -125,12 +133,12 @@ def hertz_mindlin(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt
     """
     vn, t0, t1, t2 = _split(n0, n1, n2, v0, v1, v2)
     a = math.sqrt(r_eff * xi)  # contact radius
-    sn = 2.0 * p[P_E_STAR] * a
-    fn_el = (2.0 / 3.0) * sn * xi
-    fn = fn_el - p[P_BETA_TERM] * math.sqrt(sn * m_eff) * vn
+    sam = p[P_BETA_TERM] * math.sqrt(a * m_eff)
+    fn_el = (4.0 / 3.0) * p[P_E_STAR] * a * xi
+    fn = fn_el - p[P_SQRT_2E] * sam * vn  # damping 2 sqrt(5/6) |beta| sqrt(S_n m*)
     if clip and fn < 0.0:
         fn = 0.0
     st = 8.0 * p[P_G_STAR] * a
-    ct = p[P_BETA_TERM] * math.sqrt(st * m_eff)
+    ct = p[P_SQRT_8G] * sam
     f0, f1, f2 = _spring_friction(st, ct, p[P_MU_HM] * fn, t0, t1, t2, n0, n1, n2, hist, k, dt)
     return fn, f0, f1, f2, fn_el

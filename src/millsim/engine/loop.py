@@ -27,7 +27,9 @@ from . import contact as law
 from .kinematics import body_pose, wall_contact
 from .neighbours import build_verlet, min_image, wrap_periodic
 
-BLOCK = 256  # particles per reduction block (fixed, so sums do not depend on the thread count)
+SLOT_WIDTH = 8  # per-slot results, one cache line: force on i, n x F_t, overlap, padding
+BLOCK = 256
+FAST = law.FAST  # particles per reduction block (fixed, so sums do not depend on the thread count)
 
 # Guard codes written to err[0]; err = [code, step, particle, partner]. With threads the particle
 # recorded is whichever got there first; the Python side names a deterministic one.
@@ -109,7 +111,10 @@ def _gear_correct(i, dt, x, v, w, acc, alpha, gear, a0, a1, a2, b0, b1, b2):
 
 def build_chunk_runner(spec):
     """Compile (or load from cache) the chunk runner for a :class:`~millsim.engine.spec.PhysicsSpec`."""
-    LAW = law.LAW_IDS[spec.contact_law]
+    # Plain booleans (not comparisons with module attributes) so numba prunes the unused laws
+    # before typing them.
+    LINEAR_HW = spec.contact_law == "linear_hw"
+    LINEAR_HISTORY = spec.contact_law == "linear_history"
     ROLLING = spec.rolling_friction
     GEAR = spec.integrator == "gear"
     CLIP = spec.clip_normal
@@ -119,7 +124,7 @@ def build_chunk_runner(spec):
     PERIODIC = spec.periodic
     SPRING = law.LAW_HAS_SPRING[spec.contact_law]
 
-    @njit(parallel=True, cache=True)
+    @njit(parallel=True, cache=True, fastmath=FAST)
     def run_chunk(n_steps, t, dt, P, C, pair_params, walls, wall_hist, bodies, body_members,
                   gravity, box_lo, box_len, skin, dim, max_overlap, v_max,
                   body_load, body_impulse, body_work, wall_impulse, wall_work, counters, err):
@@ -151,9 +156,7 @@ def build_chunk_runner(spec):
         # Per-slot results: force on i, n x F_t and the overlap (torque on either body is
         # -(r - xi/2) n x F_t: lever arms that add up to the distance conserve angular momentum),
         # and the rolling torques on i and j when rolling friction is compiled in.
-        pf = np.empty((nbr.shape[0], 3))
-        pc = np.empty_like(pf)
-        pxi = np.empty(nbr.shape[0])
+        out = np.empty((nbr.shape[0], SLOT_WIDTH))
         proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
         for step in range(n_steps):
             # ---- pass 1: contact forces per Verlet slot --------------------------------------
@@ -174,15 +177,14 @@ def build_chunk_runner(spec):
                             state[k, 0] = 0.0
                             state[k, 1] = 0.0
                             state[k, 2] = 0.0
-                        for a in range(3):
-                            pf[k, a] = 0.0
-                            pc[k, a] = 0.0
-                        pxi[k] = 0.0
+                        for a in range(7):
+                            out[k, a] = 0.0
                         if ROLLING:
                             proll[k, :, :] = 0.0
                         continue
                     dist = math.sqrt(dist2)
-                    n0, n1, n2 = d0 / dist, d1 / dist, d2 / dist
+                    inv = 1.0 / dist
+                    n0, n1, n2 = d0 * inv, d1 * inv, d2 * inv
                     xi = rsum - dist
                     ri, rj = radius[i], radius[j]
                     if xi > max_overlap * min(ri, rj) and err[0] == 0:
@@ -199,22 +201,23 @@ def build_chunk_runner(spec):
                     vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
                     m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
                     p = pair_params[material[i], material[j]]
-                    if LAW == law.LINEAR_HW:
+                    if LINEAR_HW:
                         fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff, CLIP)
-                    elif LAW == law.LINEAR_HISTORY:
+                    elif LINEAR_HISTORY:
                         fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff,
                                                             CLIP, state, k, dt)
                     else:
                         fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xi, n0, n1, n2, vr0, vr1, vr2,
                                                                   m_eff, ri * rj / rsum, CLIP,
                                                                   state, k, dt)
-                    pf[k, 0] = fn * n0 + f0
-                    pf[k, 1] = fn * n1 + f1
-                    pf[k, 2] = fn * n2 + f2
-                    pc[k, 0] = n1 * f2 - n2 * f1
-                    pc[k, 1] = n2 * f0 - n0 * f2
-                    pc[k, 2] = n0 * f1 - n1 * f0
-                    pxi[k] = xi
+                    o = out[k]
+                    o[0] = fn * n0 + f0
+                    o[1] = fn * n1 + f1
+                    o[2] = fn * n2 + f2
+                    o[3] = n1 * f2 - n2 * f1
+                    o[4] = n2 * f0 - n0 * f2
+                    o[5] = n0 * f1 - n1 * f0
+                    o[6] = xi
                     if ROLLING:
                         # EDEM "standard": constant torque opposing each body's own spin.
                         mr = p[law.P_MU_ROLL] * fn_el
@@ -239,26 +242,28 @@ def build_chunk_runner(spec):
                     R2 = 0.0
                     ri = radius[i]
                     for k in range(start[i], start[i + 1]):
-                        F0 += pf[k, 0]
-                        F1 += pf[k, 1]
-                        F2 += pf[k, 2]
-                        arm = ri - 0.5 * pxi[k]
-                        C0 += arm * pc[k, 0]
-                        C1 += arm * pc[k, 1]
-                        C2 += arm * pc[k, 2]
+                        o = out[k]
+                        F0 += o[0]
+                        F1 += o[1]
+                        F2 += o[2]
+                        arm = ri - 0.5 * o[6]
+                        C0 += arm * o[3]
+                        C1 += arm * o[4]
+                        C2 += arm * o[5]
                         if ROLLING:
                             R0 += proll[k, 0, 0]
                             R1 += proll[k, 0, 1]
                             R2 += proll[k, 0, 2]
                     for q in range(rev_start[i], rev_start[i + 1]):
                         k = rev_slot[q]
-                        F0 -= pf[k, 0]
-                        F1 -= pf[k, 1]
-                        F2 -= pf[k, 2]
-                        arm = ri - 0.5 * pxi[k]
-                        C0 += arm * pc[k, 0]
-                        C1 += arm * pc[k, 1]
-                        C2 += arm * pc[k, 2]
+                        o = out[k]
+                        F0 -= o[0]
+                        F1 -= o[1]
+                        F2 -= o[2]
+                        arm = ri - 0.5 * o[6]
+                        C0 += arm * o[3]
+                        C1 += arm * o[4]
+                        C2 += arm * o[5]
                         if ROLLING:
                             R0 += proll[k, 1, 0]
                             R1 += proll[k, 1, 1]
@@ -284,10 +289,10 @@ def build_chunk_runner(spec):
                             m_eff = 1.0 / inv_mass[i]
                             p = pair_params[material[i], int(walls[iw, 9])]
                             hist = wall_hist[i]
-                            if LAW == law.LINEAR_HW:
+                            if LINEAR_HW:
                                 fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2,
                                                                m_eff, CLIP)
-                            elif LAW == law.LINEAR_HISTORY:
+                            elif LINEAR_HISTORY:
                                 fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1,
                                                                     vr2, m_eff, CLIP, hist, iw, dt)
                             else:
@@ -406,9 +411,7 @@ def build_chunk_runner(spec):
                     x, radius, body, skin, dim, box_lo, box_len, start, nbr, state)
                 x_ref[:, :] = x
                 rebuild[0] = 0
-                pf = np.empty((nbr.shape[0], 3))
-                pc = np.empty_like(pf)
-                pxi = np.empty(nbr.shape[0])
+                out = np.empty((nbr.shape[0], SLOT_WIDTH))
                 proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
                 counters[0] += 1
         counters[1] += steps_done

@@ -157,4 +157,6 @@ class MaterialTable:
             row[law.P_BETA_TERM] = -law.TWO_SQRT_5_6 * beta
             row[law.P_MU_HM] = inter.friction
             row[law.P_MU_ROLL] = inter.rolling_friction
+            row[law.P_SQRT_2E] = math.sqrt(2.0 * e_star)
+            row[law.P_SQRT_8G] = math.sqrt(8.0 * g_star)
         return row
