@@ -87,6 +87,24 @@ def cmd_info(args):
     return 0
 
 
+def cmd_aggregate(args):
+    from .analysis.aggregate import aggregate, write_aggregate
+    from .scenes.base import get_scene
+
+    scene = get_scene(args.scene)
+    # the scene declares each parameter once; its units label the stacking coordinates
+    attrs = {p.name: {"units": p.units, "long_name": p.doc} for p in scene.params}
+    write_aggregate(aggregate(scene.name, args.cases, args.over, attrs), args.out)
+    return 0
+
+
+def cmd_plot(args):
+    from .plots import plot
+
+    plot(args.kind, args.input, args.out)
+    return 0
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="millsim", description="DEM parameter studies of mills and breakage (numba engine).")
@@ -109,6 +127,22 @@ def build_parser():
     p = sub.add_parser("info", help="describe a case file")
     p.add_argument("file")
     p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("aggregate", help="stack case files along their swept parameters (netCDF)")
+    p.add_argument("scene", help="scene the cases belong to")
+    p.add_argument("cases", nargs="+", help="case files (.nc)")
+    p.add_argument("--over", action="append", metavar="KEY",
+                   help="parameter to stack along (repeatable; default: those that differ)")
+    p.add_argument("--out", required=True, help="output aggregate (.nc)")
+    p.set_defaults(func=cmd_aggregate)
+
+    p = sub.add_parser("plot", help="draw a figure from an aggregate, or a GIF from snapshots")
+    p.add_argument("kind", help="ballmill_rate | ballmill_size_distributions | "
+                   "ballmill_fragmentation_maps | ballmill_pressure_maps | ballmill_force_chains | "
+                   "animation")
+    p.add_argument("input", help="aggregate (.nc), or snapshots (.h5) for animation")
+    p.add_argument("--out", required=True, help="output figure (.png, .gif for animation)")
+    p.set_defaults(func=cmd_plot)
     return parser
 
 

@@ -24,10 +24,12 @@ import numpy as np
 from numba import njit, prange
 
 from . import contact as law
+from ..breakage.weibull import fracture_probability
 from .kinematics import body_pose, wall_contact
 from .neighbours import build_verlet, min_image, wrap_periodic
+from .rng import hash_uniform
 
-SLOT_WIDTH = 8  # per-slot results, one cache line: force on i, n x F_t, overlap, padding
+SLOT_WIDTH = 8  # per-slot results, one cache line: force on i, n x F_t, overlap, normal force
 BLOCK = 256
 FAST = law.FAST  # particles per reduction block (fixed, so sums do not depend on the thread count)
 
@@ -123,11 +125,19 @@ def build_chunk_runner(spec):
     BODIES = spec.bodies
     PERIODIC = spec.periodic
     SPRING = law.LAW_HAS_SPRING[spec.contact_law]
+    PRESSURE = spec.normal_force_sum
+    FRACTURE = spec.fracture == "weibull"
+    # Contact-event columns after the tangential spring: largest normal force of the event, twin
+    # flag and overlap one step ago (seed 000 twin relief, eqs 19-20).
+    C_FMAX = 3 if SPRING else 0
+    C_TWIN = C_FMAX + 1
+    C_XIP = C_FMAX + 2
 
     @njit(parallel=True, cache=True, fastmath=FAST)
     def run_chunk(n_steps, t, dt, P, C, pair_params, walls, wall_hist, bodies, body_members,
                   gravity, box_lo, box_len, skin, dim, max_overlap, v_max,
-                  body_load, body_impulse, body_work, wall_impulse, wall_work, counters, err):
+                  body_load, body_impulse, body_work, wall_impulse, wall_work, counters, err,
+                  step0, fracture_params, fractures, n_fractures):
         n = P.x.shape[0]
         x, v, w, acc, alpha = P.x, P.v, P.w, P.acc, P.alpha
         radius, inv_mass, inv_inertia = P.radius, P.inv_mass, P.inv_inertia
@@ -158,6 +168,12 @@ def build_chunk_runner(spec):
         # and the rolling torques on i and j when rolling friction is compiled in.
         out = np.empty((nbr.shape[0], SLOT_WIDTH))
         proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
+        # Fracture decisions per slot (bit 1: i breaks, bit 2: j breaks), made when an event ends.
+        # (np.empty, not np.zeros: numba's parfor pass mishandles np.zeros re-assigned in the step
+        # loop; every slot is written in pass 1 before it is read.)
+        broke = np.empty(nbr.shape[0] if FRACTURE else 0, dtype=np.int8)
+        peak = np.empty(nbr.shape[0] if FRACTURE else 0)
+        stop = np.zeros(1, dtype=np.int64)  # a fracture ends the chunk at this step's boundary
         for step in range(n_steps):
             # ---- pass 1: contact forces per Verlet slot --------------------------------------
             for i in prange(n):
@@ -177,10 +193,30 @@ def build_chunk_runner(spec):
                             state[k, 0] = 0.0
                             state[k, 1] = 0.0
                             state[k, 2] = 0.0
-                        for a in range(7):
+                        for a in range(SLOT_WIDTH):
                             out[k, a] = 0.0
                         if ROLLING:
                             proll[k, :, :] = 0.0
+                        if FRACTURE:
+                            # The contact event ended: one fracture trial per body at its peak force.
+                            fmax = state[k, C_FMAX]
+                            flag = 0
+                            if fmax > 0.0:
+                                c_w = fracture_params[0]
+                                seed = int(fracture_params[1])
+                                if body[i] < 0 and hash_uniform(seed, step0 + step, i, j) < \
+                                        fracture_probability(c_w, radius[i], fmax):
+                                    flag |= 1
+                                if body[j] < 0 and hash_uniform(seed, step0 + step, j, i) < \
+                                        fracture_probability(c_w, radius[j], fmax):
+                                    flag |= 2
+                            broke[k] = flag
+                            peak[k] = fmax
+                            if flag:
+                                stop[0] = 1
+                            state[k, C_FMAX] = 0.0
+                            state[k, C_TWIN] = 0.0
+                            state[k, C_XIP] = 0.0
                         continue
                     dist = math.sqrt(dist2)
                     inv = 1.0 / dist
@@ -188,7 +224,11 @@ def build_chunk_runner(spec):
                     xi = rsum - dist
                     ri, rj = radius[i], radius[j]
                     if xi > max_overlap * min(ri, rj) and err[0] == 0:
-                        err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
+                        # Twin fragments start deeply overlapped by construction: only the
+                        # overlap beyond their reference counts.
+                        if not (FRACTURE and state[k, C_TWIN] > 0.0) or \
+                                xi - state[k, C_XIP] > max_overlap * min(ri, rj):
+                            err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
                     # Relative velocity of i's contact point w.r.t. j's: dv - (ai wi + aj wj) x n,
                     # lever arms a = r - xi/2 (the contact point sits mid-overlap).
                     ai = ri - 0.5 * xi
@@ -201,7 +241,22 @@ def build_chunk_runner(spec):
                     vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
                     m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
                     p = pair_params[material[i], material[j]]
-                    if LINEAR_HW:
+                    if FRACTURE and state[k, C_TWIN] > 0.0:
+                        # Twin fragments until first separation (seed 000 eqs 19-20): only overlap
+                        # beyond the reference (the creation overlap, shrinking as they part)
+                        # resists compression; while they part, a small constant force drives them
+                        # apart.
+                        vn = vr0 * n0 + vr1 * n1 + vr2 * n2
+                        ref = state[k, C_XIP]
+                        if vn < 0.0:
+                            fn = max(p[law.P_K_N] * (xi - ref) - m_eff * p[law.P_GAMMA_N] * vn, 0.0)
+                        else:
+                            fn = fracture_params[2]
+                        state[k, C_XIP] = min(ref, xi)
+                        f0 = 0.0
+                        f1 = 0.0
+                        f2 = 0.0
+                    elif LINEAR_HW:
                         fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff, CLIP)
                     elif LINEAR_HISTORY:
                         fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff,
@@ -218,6 +273,11 @@ def build_chunk_runner(spec):
                     o[4] = n2 * f0 - n0 * f2
                     o[5] = n0 * f1 - n1 * f0
                     o[6] = xi
+                    o[7] = fn
+                    if FRACTURE:
+                        broke[k] = 0
+                        if state[k, C_TWIN] == 0.0 and fn > state[k, C_FMAX]:
+                            state[k, C_FMAX] = fn
                     if ROLLING:
                         # EDEM "standard": constant torque opposing each body's own spin.
                         mr = p[law.P_MU_ROLL] * fn_el
@@ -228,7 +288,7 @@ def build_chunk_runner(spec):
                             proll[k, 1, a] = -mr * rj * w[j, a] / wj if wj > 0.0 else 0.0
 
             # ---- pass 2: per particle, in fixed blocks ----------------------------------------
-            last = step == n_steps - 1
+            last = step == n_steps - 1 or stop[0] != 0
             for blk in prange(n_blocks):
                 for i in range(blk * BLOCK, min(n, (blk + 1) * BLOCK)):
                     F0 = 0.0
@@ -240,9 +300,12 @@ def build_chunk_runner(spec):
                     R0 = 0.0
                     R1 = 0.0
                     R2 = 0.0
+                    FS = 0.0
                     ri = radius[i]
                     for k in range(start[i], start[i + 1]):
                         o = out[k]
+                        if PRESSURE:
+                            FS += o[7]
                         F0 += o[0]
                         F1 += o[1]
                         F2 += o[2]
@@ -257,6 +320,8 @@ def build_chunk_runner(spec):
                     for q in range(rev_start[i], rev_start[i + 1]):
                         k = rev_slot[q]
                         o = out[k]
+                        if PRESSURE:
+                            FS += o[7]
                         F0 -= o[0]
                         F1 -= o[1]
                         F2 -= o[2]
@@ -315,6 +380,8 @@ def build_chunk_runner(spec):
                             F0 += g0
                             F1 += g1
                             F2 += g2
+                            if PRESSURE:
+                                FS += fn
                             T0 += c0
                             T1 += c1
                             T2 += c2
@@ -330,6 +397,8 @@ def build_chunk_runner(spec):
                             wp[4] -= cp2 * g0 - cp0 * g2
                             wp[5] -= cp0 * g1 - cp1 * g0
                             wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
+                    if PRESSURE:
+                        P.fn_sum[i] = FS
                     if body[i] < 0:
                         a0 = F0 * inv_mass[i]
                         a1 = F1 * inv_mass[i]
@@ -401,8 +470,25 @@ def build_chunk_runner(spec):
                             wall_impulse[iw, c] += wall_part[blk, iw, c] * dt
                         wall_work[iw] -= wall_part[blk, iw, 6] * dt
                 wall_part[:, :, :] = 0.0
+            if FRACTURE:
+                # Collect this step's fracture decisions in slot order (deterministic).
+                for i in range(n):
+                    for k in range(start[i], start[i + 1]):
+                        if broke[k] == 0:
+                            continue
+                        j = nbr[k]
+                        for side in range(2):
+                            if broke[k] & (1 << side) and n_fractures[0] < fractures.shape[0]:
+                                me, other = (i, j) if side == 0 else (j, i)
+                                row = fractures[n_fractures[0]]
+                                row[0] = me
+                                row[1] = other
+                                row[2] = peak[k]
+                                row[3] = step0 + step
+                                n_fractures[0] += 1
+                        broke[k] = 0
             steps_done = step + 1
-            if err[0] != 0:
+            if err[0] != 0 or stop[0] != 0:
                 break
             if rebuild[0] != 0 and not last:
                 if PERIODIC:
@@ -413,6 +499,8 @@ def build_chunk_runner(spec):
                 rebuild[0] = 0
                 out = np.empty((nbr.shape[0], SLOT_WIDTH))
                 proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
+                broke = np.empty(nbr.shape[0] if FRACTURE else 0, dtype=np.int8)
+                peak = np.empty(nbr.shape[0] if FRACTURE else 0)
                 counters[0] += 1
         counters[1] += steps_done
         return steps_done, start, nbr, state, rev_start, rev_slot

@@ -65,11 +65,15 @@ class Simulation:
         max_overlap: guard, overlap / smaller radius beyond which the run stops.
         v_max: guard, particle speed [m/s] beyond which the run stops (runaway energy).
         thickness: disk thickness [m] for 2D masses.
+        fracture_c: Weibull constant c [m^3 N^-4] of seed 000 (spec.fracture == "weibull").
+        twin_repulsion: constant force [N] pushing twin fragments apart until they separate.
+        seed: seed of the counter-based random numbers drawn inside the step loop.
     """
 
     def __init__(self, spec: PhysicsSpec, table, x, radius, material, v=None, w=None, body=None,
                  walls=(), bodies=(), gravity=(0.0, 0.0, -9.81), box_lo=None, box_len=None,
-                 skin=None, dt=None, impact_speed=1.0, max_overlap=0.3, v_max=None, thickness=1.0):
+                 skin=None, dt=None, impact_speed=1.0, max_overlap=0.3, v_max=None, thickness=1.0,
+                 fracture_c=0.0, twin_repulsion=0.0, seed=0):
         if table.contact_law != spec.contact_law:
             raise ValueError(f"contact_law: table uses {table.contact_law!r}, spec {spec.contact_law!r}")
         self.spec = spec
@@ -90,7 +94,11 @@ class Simulation:
         self.impact_speed = float(impact_speed)
         self.max_overlap = float(max_overlap)
         self.v_max = float(v_max) if v_max is not None else max(100.0, 10.0 * self.impact_speed)
-        self.state_columns = 3 if law.LAW_HAS_SPRING[spec.contact_law] else 0
+        self.state_columns = (3 if law.LAW_HAS_SPRING[spec.contact_law] else 0) + (
+            3 if spec.fracture else 0)
+        self.fracture_params = np.array([fracture_c, seed, twin_repulsion], dtype=float)
+        self.fractures = np.zeros((256, 4))  # [particle, partner, peak force, step]
+        self.n_fractures = np.zeros(1, dtype=np.int64)
         self.particles = self._make_particles(x, radius, material, v, w, body)
         mean_d = 2.0 * float(np.mean(radius))
         self.skin = 0.1 * mean_d if skin is None else float(skin)
@@ -201,28 +209,38 @@ class Simulation:
                                 boundary, self.impact_speed)
 
     # ---- running ------------------------------------------------------------------------------
-    def run(self, steps, chunk=2000, observer=None, progress=False, threads=None):
-        """Advance ``steps`` steps in compiled chunks; call ``observer(self)`` after each chunk.
+    def run(self, steps, chunk=2000, observer=None, progress=False, threads=None,
+            on_fracture=None):
+        """Advance ``steps`` steps in compiled chunks.
 
-        ``threads`` defaults to numba's current setting; small systems run on one thread.
+        ``observer(self)`` is called every ``chunk`` steps (the output cadence). A fracture
+        decision ends a chunk early at a step boundary; ``on_fracture(self)`` then replaces the
+        broken particles before the run goes on. ``threads`` defaults to numba's current setting;
+        small systems run on one thread.
         """
         runner = chunk_runner(self.spec)
         progress = Progress(steps, self.dt) if progress else None
         saved = numba.get_num_threads()
         threads = saved if threads is None else int(threads)
         done = 0
+        next_observation = chunk
         try:
             while done < steps:
-                n = min(chunk, steps - done)
+                n = min(next_observation, steps) - done
                 numba.set_num_threads(1 if self.n_particles < SERIAL_BELOW else threads)
                 t0 = time.perf_counter()
-                self._run_chunk(runner, n)
+                done += self._run_chunk(runner, n)
                 self.wall_seconds += time.perf_counter() - t0
-                done += n
-                if progress:
-                    progress.update(done, self.n_particles)
-                if observer is not None:
-                    observer(self)
+                if self.n_fractures[0]:
+                    if on_fracture is None:
+                        raise RuntimeError("fractures decided but no on_fracture handler given")
+                    on_fracture(self)
+                if done >= next_observation or done == steps:
+                    next_observation += chunk
+                    if progress:
+                        progress.update(done, self.n_particles)
+                    if observer is not None:
+                        observer(self)
         finally:
             numba.set_num_threads(saved)
         if progress:
@@ -235,13 +253,15 @@ class Simulation:
                      self.bodies, self.body_members, self.gravity, self.box_lo, self.box_len,
                      self.skin, self.spec.dim, self.max_overlap, self.v_max, self.body_load,
                      self.body_impulse, self.body_work, self.wall_impulse, self.wall_work,
-                     self.counters, err)
+                     self.counters, err, self.step, self.fracture_params, self.fractures,
+                     self.n_fractures)
         done = int(out[0])
         self.contacts = type(c)(*out[1:])
         self.step += done
         self.time += done * self.dt
         if err[0]:
             raise SimulationError(self._describe_error(err))
+        return done
 
     def _describe_error(self, err):
         """One line naming the step, the particle(s) and the limit that was crossed.
@@ -253,7 +273,11 @@ class Simulation:
         where = f"step {self.step - 1} (t = {self.time:.6g} s)"
         p = self.particles
         if code == ERR_OVERLAP:
-            pi, pj, overlap = self.contact_pairs()
+            pi, pj, overlap, slot = self.contact_pairs(with_slots=True)
+            if self.spec.fracture:  # twin fragments count only beyond their reference overlap
+                base = self.state_columns - 3
+                twin = self.contacts.state[slot, base + 1] > 0
+                overlap = np.where(twin, overlap - self.contacts.state[slot, base + 2], overlap)
             if len(pi):
                 k = int(np.argmax(overlap / np.minimum(p.radius[pi], p.radius[pj])))
                 i, j = int(pi[k]), int(pj[k])
@@ -272,6 +296,37 @@ class Simulation:
             return (f"{where}: runaway kinetic energy, particle {i} moves at {speed[i]:.4g} m/s, "
                     f"above v_max = {self.v_max:.4g} m/s")
         return f"{where}: guard code {code} on particle {i}"
+
+    def pop_fractures(self):
+        """Fracture decisions of the last chunk: list of (particle, partner, peak force [N], step)."""
+        rows = [(int(a), int(b), float(f), int(s)) for a, b, f, s in
+                self.fractures[: int(self.n_fractures[0])]]
+        self.n_fractures[0] = 0
+        return rows
+
+    def mark_twins(self, i, j):
+        """Give the pair (i, j) the twin-fragment interaction until it first separates."""
+        if not self.spec.fracture:
+            raise ValueError("mark_twins: spec.fracture is off")
+        a, b = min(i, j), max(i, j)
+        c = self.contacts
+        row = c.nbr[c.start[a]:c.start[a + 1]]
+        k = c.start[a] + int(np.searchsorted(row, b))
+        if k >= c.start[a + 1] or c.nbr[k] != b:
+            return
+        base = self.state_columns - 3
+        c.state[k, base + 1] = 1.0  # twin flag
+        d = self.particles.x[a] - self.particles.x[b]
+        c.state[k, base + 2] = self.particles.radius[a] + self.particles.radius[b] - np.linalg.norm(d)
+
+    def twin_partners(self, i):
+        """Particles that are still twins of particle i (fragments not yet separated)."""
+        c = self.contacts
+        twin = c.state[:, self.state_columns - 2] > 0
+        mine = np.arange(c.start[i], c.start[i + 1])
+        theirs = c.rev_slot[c.rev_start[i]:c.rev_start[i + 1]]
+        owner = np.searchsorted(c.start, theirs, side="right") - 1
+        return [int(j) for j in c.nbr[mine][twin[mine]]] + [int(o) for o in owner[twin[theirs]]]
 
     def set_time_step(self, dt):
         """Change dt (refused above the stability limit)."""
@@ -343,8 +398,8 @@ class Simulation:
         free = self.free
         return float(-(1.0 / p.inv_mass[free] * (p.x[free] @ self.gravity)).sum())
 
-    def contact_pairs(self):
-        """(i, j, overlap) of the particle pairs in contact now."""
+    def contact_pairs(self, with_slots=False):
+        """(i, j, overlap) of the particle pairs in contact now (and their list slots)."""
         p, c = self.particles, self.contacts
         i = np.repeat(np.arange(self.n_particles), np.diff(c.start))
         j = c.nbr.astype(np.int64)
@@ -354,6 +409,8 @@ class Simulation:
                 d[:, a] -= self.box_len[a] * np.floor(d[:, a] / self.box_len[a] + 0.5)
         overlap = p.radius[i] + p.radius[j] - np.linalg.norm(d, axis=1)
         touching = overlap > 0
+        if with_slots:
+            return i[touching], j[touching], overlap[touching], np.flatnonzero(touching)
         return i[touching], j[touching], overlap[touching]
 
 

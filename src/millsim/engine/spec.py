@@ -21,6 +21,10 @@ class PhysicsSpec:
         clip_normal: normal force never attractive. Only analytic verification of the textbook
             "contact ends at zero overlap" convention turns this off.
         gravity, walls, bodies, periodic: whether those terms exist at all.
+        normal_force_sum: keep each particle's sum of contact normal forces (pressure maps,
+            force chains).
+        fracture: "" (none) or "weibull" (seed 000: fracture trial per contact event at its peak
+            force, twin-fragment relief; needs the linear_hw law).
     """
 
     dim: int = 3
@@ -32,6 +36,8 @@ class PhysicsSpec:
     walls: bool = False
     bodies: bool = False
     periodic: bool = False
+    normal_force_sum: bool = False
+    fracture: str = ""
 
     def __post_init__(self):
         if self.dim not in (2, 3):
@@ -40,6 +46,10 @@ class PhysicsSpec:
             raise ValueError(f"contact_law: must be one of {sorted(LAW_IDS)}, got {self.contact_law!r}")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator: must be one of {INTEGRATORS}, got {self.integrator!r}")
+        if self.fracture not in ("", "weibull"):
+            raise ValueError(f"fracture: must be '' or 'weibull', got {self.fracture!r}")
+        if self.fracture == "weibull" and self.contact_law != "linear_hw":
+            raise ValueError("fracture: 'weibull' (seed 000) goes with contact_law 'linear_hw'")
         if self.rolling_friction and self.contact_law != "hertz_mindlin":
             raise ValueError("rolling_friction: only available with contact_law 'hertz_mindlin'")
 

@@ -12,7 +12,7 @@ import numpy as np
 ParticleArrays = namedtuple(
     "ParticleArrays",
     ["x", "v", "w", "acc", "alpha", "radius", "inv_mass", "inv_inertia", "material", "body",
-     "x_ref", "x_body0", "gear"],
+     "x_ref", "x_body0", "gear", "fn_sum"],
 )
 ContactList = namedtuple("ContactList", ["start", "nbr", "state", "rev_start", "rev_slot"])
 
@@ -46,6 +46,7 @@ def allocate(x, v, w, radius, inv_mass, inv_inertia, material, body, x_body0, ge
         body=np.ascontiguousarray(body, dtype=np.int32),
         x_ref=x.copy(), x_body0=as3(x_body0),
         gear=np.zeros((n if gear else 0, GEAR_SLOTS, 3)),
+        fn_sum=np.zeros(n),
     )
 
 

@@ -2,7 +2,7 @@
 
 from importlib import import_module
 
-SCENE_MODULES = ("collision", "packing")
+SCENE_MODULES = ("collision", "packing", "ballmill2d")
 
 
 def load_all():

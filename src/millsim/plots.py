@@ -1,0 +1,223 @@
+"""Figures from aggregated datasets and particle snapshots (matplotlib, no pyplot state).
+
+Each ``ballmill_*`` function draws one figure of seed 000 from an aggregate written by
+``millsim aggregate ballmill2d``; :func:`animation` renders an HDF5 snapshot file to a GIF.
+Axis labels take their units from the variables' ``units`` attributes.
+"""
+
+import itertools
+import json
+import os
+
+import h5py
+import numpy as np
+import xarray as xr
+from matplotlib.animation import PillowWriter
+from matplotlib.cm import ScalarMappable
+from matplotlib.collections import EllipseCollection
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle
+from matplotlib.ticker import LogFormatter
+
+from .io import read_case
+
+__all__ = ["PLOTS", "plot", "animation", "bond_austin_speed_factor"]
+
+SPEED = "n_over_nc"
+REFERENCE_END = 1.232  # zero of the Bond/Austin speed factor
+
+
+def bond_austin_speed_factor(phi):
+    """Speed factor phi (1 - 0.1 / 2^(9 - 10 phi)) of the Bond and Austin mill-power equations.
+
+    Normalised to its maximum (at phi = 0.941); the empirical fit turns negative beyond
+    phi = REFERENCE_END. A shape reference only: it describes power draw, not comminution rate
+    (reference/ballmill.md, sections 2.2-3).
+    """
+    def factor(p):
+        return p * (1.0 - 0.1 / 2.0 ** (9.0 - 10.0 * p))
+
+    return factor(np.asarray(phi, dtype=float)) / factor(np.linspace(0.0, 1.2, 12001)).max()
+
+
+def _label(var: xr.DataArray, name: str | None = None) -> str:
+    return f"{name or var.attrs.get('long_name', var.name)} [{var.attrs.get('units', '?')}]"
+
+
+def _variants(ds: xr.Dataset):
+    """(label, dataset along n/n_c only) for each combination of the other swept parameters."""
+    others = [d for d in json.loads(ds.attrs["stacked_over"]) if d != SPEED]
+    for values in itertools.product(*(ds[d].values for d in others)):
+        where = dict(zip(others, values))
+        yield ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
+                        for k, v in where.items()), ds.sel(where)
+
+
+def _speed_colours(ds: xr.Dataset):
+    speeds = ds[SPEED].values
+    norm = Normalize(speeds.min(), speeds.max() if speeds.max() > speeds.min() else speeds.min() + 1)
+    return [(s, ScalarMappable(norm, "viridis").to_rgba(s)) for s in speeds]
+
+
+def ballmill_rate(ds: xr.Dataset, out: str) -> None:
+    """Fig. 6: relative comminution rate vs n/n_c with the empirical power shape; drive power below."""
+    fig = Figure(figsize=(7, 7.5), layout="constrained")
+    ax_rate, ax_power = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    for label, sub in _variants(ds):
+        suffix = f" ({label})" if label else ""
+        ax_rate.errorbar(sub[SPEED], sub["relative_rate"], yerr=sub["relative_rate_ci"], fmt="o--",
+                         capsize=3, label=f"simulation, 95% interval{suffix}")
+        ax_power.plot(sub[SPEED], sub["mean_drive_power"], "s-", label=f"simulation{suffix}")
+    phi = np.linspace(0.0, REFERENCE_END, 400)
+    ax_rate.plot(phi, bond_austin_speed_factor(phi), "k-", lw=1,
+                 label="empirical reference shape: Bond/Austin speed factor\n"
+                       r"$\varphi\,(1-0.1/2^{9-10\varphi})$, normalised")
+    ax_rate.set(ylabel=_label(ds["relative_rate"], "relative comminution rate"), ylim=(0, None),
+                title="Comminution rate vs rotation speed")
+    ax_rate.legend(fontsize="small")
+    ax_power.set(xlabel=_label(ds[SPEED], "rotation speed n/n_c"),
+                 ylabel=_label(ds["mean_drive_power"], "mean drive power"), ylim=(0, None),
+                 title="Drive power")
+    ax_power.legend(fontsize="small")
+    fig.savefig(out)
+
+
+def ballmill_size_distributions(ds: xr.Dataset, out: str) -> None:
+    """Fig. 5: mass fraction per size class for each speed, mean and spread over snapshots."""
+    variants = list(_variants(ds))
+    fig = Figure(figsize=(7, 4.5 * len(variants)), layout="constrained")
+    for ax, (label, sub) in zip(np.atleast_1d(fig.subplots(len(variants), 1)), variants):
+        radius_um = sub["size_class"] * 1e6  # LogFormatter writes numbers >= 1 plainly
+        for speed, colour in _speed_colours(sub):
+            mean = sub["mass_fraction"].sel({SPEED: speed})
+            std = sub["mass_fraction_std"].sel({SPEED: speed})
+            ax.plot(radius_um, mean, "o-", ms=3, color=colour, label=f"n/n_c = {speed:g}")
+            ax.fill_between(radius_um, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
+        ax.set(xscale="log", xlabel="grain radius (size-class centre) [\u00b5m]",
+               ylabel=_label(sub["mass_fraction"], "mass fraction per size class"),
+               title="Fragment size distribution" + (f" ({label})" if label else "")
+               + "\nline: mean over snapshots, band: \u00b11 standard deviation")
+        ax.xaxis.set_major_formatter(LogFormatter())
+        ax.xaxis.set_minor_formatter(LogFormatter())
+        ax.legend(fontsize="small", ncols=2)
+    fig.savefig(out)
+
+
+def _maps(ds: xr.Dataset, name: str, title: str, out: str) -> None:
+    """One map of ``name`` per case on a shared grey scale, with the drum outline."""
+    panels = [(label, sub.sel({SPEED: s}), s) for label, sub in _variants(ds) for s in sub[SPEED].values]
+    ncols = min(len(panels), 4)
+    nrows = -(-len(panels) // ncols)
+    fig = Figure(figsize=(3.2 * ncols + 1, 3.3 * nrows + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
+    norm = Normalize(0.0, float(ds[name].max()))
+    for ax, (label, case, speed) in zip(axes, panels):
+        mesh = ax.pcolormesh(case["gx"], case["gy"], case[name], shading="nearest", cmap="Greys",
+                             norm=norm)
+        radius = float(case["drum_radius"]) if "drum_radius" in case.coords \
+            else float(ds.attrs["param_drum_radius"])
+        ax.add_patch(Circle((0.0, 0.0), radius, fill=False, color="tab:red", lw=1))
+        ax.set(aspect="equal", title=f"n/n_c = {speed:g}" + (f"\n{label}" if label else ""),
+               xlabel=_label(case["gx"], "x"), ylabel=_label(case["gy"], "y"))
+        ax.locator_params(nbins=4)
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
+    fig.colorbar(mesh, ax=axes.tolist(), label=_label(ds[name], title.lower()), shrink=0.8)
+    fig.suptitle(f"{title} (drum outline in red)")
+    fig.savefig(out)
+
+
+def ballmill_fragmentation_maps(ds: xr.Dataset, out: str) -> None:
+    """Fig. 7: where grains break, per rotation speed."""
+    _maps(ds, "fracture_frequency", "Fracture frequency", out)
+
+
+def ballmill_pressure_maps(ds: xr.Dataset, out: str) -> None:
+    """Fig. 12: time-averaged local pressure, per rotation speed."""
+    _maps(ds, "pressure", "Time-averaged pressure", out)
+
+
+def ballmill_force_chains(ds: xr.Dataset, out: str) -> None:
+    """Figs. 10-11: chain-length distribution, maximum pressure and force along a chain."""
+    fig = Figure(figsize=(14, 4.5), layout="constrained")
+    ax_count, ax_pressure, ax_force = fig.subplots(1, 3)
+    for label, sub in _variants(ds):
+        for speed, colour in _speed_colours(sub):
+            case = sub.sel({SPEED: speed})
+            name = f"n/n_c = {speed:g}" + (f", {label}" if label else "")
+            count = case["chain_count"]
+            ax_count.plot(case["chain_length"], count.where(count > 0), "o-", color=colour,
+                          label=name)  # log axis: no chains of a length is a gap, not a drop
+            ax_pressure.plot(case["chain_length"], case["chain_max_pressure"], "o-", color=colour,
+                             label=name)
+            ax_force.plot(case["chain_position"], case["chain_force_profile"], "o-", color=colour,
+                          label=name)
+    ax_count.set(yscale="log", xlabel=_label(ds["chain_length"], "chain length L"),
+                 ylabel=_label(ds["chain_count"], "number of chains"), title="Chain-length distribution")
+    ax_pressure.set(xlabel=_label(ds["chain_length"], "chain length L"),
+                    ylabel=_label(ds["chain_max_pressure"], "mean maximum pressure"),
+                    title="Maximum pressure in a chain")
+    ax_force.set(xlabel=_label(ds["chain_position"], "relative position along the chain"),
+                 ylabel=_label(ds["chain_force_profile"], "mean force"), title="Force along a chain")
+    for ax in (ax_count, ax_pressure, ax_force):
+        ax.legend(fontsize="small")
+    fig.suptitle("Force chains (run without fragmentation)")
+    fig.savefig(out)
+
+
+def _frame(group):
+    """Positions (N x 2), radii, speeds and the wall mask of one snapshot frame."""
+    radius = group["radius"][:]
+    wall = group["kinematic"][:].astype(bool) if "kinematic" in group else np.zeros(len(radius), bool)
+    speed = np.linalg.norm(group["velocity"][:, :2], axis=1)
+    return group["position"][:, :2], radius, speed, wall
+
+
+def animation(snapshots: str | os.PathLike[str], out: str, fps: int = 10) -> None:
+    """GIF of an HDF5 snapshot file: grains coloured by speed, wall particles grey."""
+    with h5py.File(snapshots, "r") as f:
+        frames = [f["frames"][name] for name in sorted(f["frames"])]
+        if not frames:
+            raise ValueError(f"{snapshots}: no frames")
+        position, radius, _, _ = _frame(frames[0])
+        reach = np.abs(position).max() + radius.max()
+        vmax = max(speed[~wall].max(initial=0.0) for *_, speed, wall in map(_frame, frames))
+        colour = ScalarMappable(Normalize(0.0, vmax or 1.0), "viridis")
+        fig = Figure(figsize=(5.5, 5), layout="constrained")
+        ax = fig.add_subplot()
+        ax.set(xlim=(-reach, reach), ylim=(-reach, reach), aspect="equal", xlabel="x [m]",
+               ylabel="y [m]")
+        fig.colorbar(colour, ax=ax, label="grain speed [m s-1]")
+        writer = PillowWriter(fps=fps)
+        with writer.saving(fig, out, dpi=100):
+            for group in frames:
+                position, radius, speed, wall = _frame(group)
+                colours = colour.to_rgba(speed)
+                colours[wall] = (0.6, 0.6, 0.6, 1.0)
+                for old in list(ax.collections):
+                    old.remove()
+                ax.add_collection(EllipseCollection(
+                    2 * radius, 2 * radius, 0.0, units="xy", offsets=position,
+                    offset_transform=ax.transData, facecolors=colours, edgecolors="none"))
+                ax.set_title(f"t = {group.attrs['time']:.3f} s")
+                writer.grab_frame()
+
+
+PLOTS = {
+    "ballmill_rate": ballmill_rate,
+    "ballmill_size_distributions": ballmill_size_distributions,
+    "ballmill_fragmentation_maps": ballmill_fragmentation_maps,
+    "ballmill_pressure_maps": ballmill_pressure_maps,
+    "ballmill_force_chains": ballmill_force_chains,
+}
+
+
+def plot(kind: str, source: str | os.PathLike[str], out: str | os.PathLike[str]) -> None:
+    """Draw figure ``kind`` from ``source`` (an aggregate, or snapshots for ``animation``)."""
+    if kind == "animation":
+        animation(source, os.fspath(out))
+        return
+    if kind not in PLOTS:
+        raise ValueError(f"kind: unknown plot {kind!r}; known: {', '.join([*PLOTS, 'animation'])}")
+    PLOTS[kind](read_case(source), os.fspath(out))

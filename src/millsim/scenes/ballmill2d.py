@@ -1,0 +1,365 @@
+"""Scene ``ballmill2d``: dry autogenous comminution in a rotating 2D drum with lifters (seed 000).
+
+Buchholtz, Freund & Poeschel, Eur. Phys. J. B 16, 169 (2000), restated in
+``shared/reference/ballmill.md``. The paper's cgs constants are converted here, at the edge:
+Y = 8e6 g s^-2 = 8e3 N/m, gamma_N = 800 1/s, gamma_T = 3000 1/s, mu = 0.5.
+
+Geometry: the drum wall is a ring of rigid disks of random radii (roughness) whose inner surfaces
+touch the circle of radius ``drum_radius``, plus 16 lifter bars of rigid disks; all of it rotates
+clockwise at n = n_over_nc * n_c, n_c = sqrt(g / R_eff) / (2 pi) with R_eff = drum_radius -
+grain_radius (the centre of a raw grain touching the wall). Disks are 2D with a thickness (masses
+rho pi R^2 L); the paper's mass convention is not stated, so L = 1 cm is an assumption.
+
+With ``fragmentation`` on: Weibull fracture per contact event at its peak force (see
+:mod:`millsim.breakage.weibull`), two-disk split, twin relief until first separation, fragments
+below the sieve radius leave as dust, and a raw grain re-enters whenever the dust mass reaches its
+mass (continuous operation at constant filling). With it off (the force-chain study of section 5)
+no breakage code is compiled and no breakage output is written; force chains are analysed instead.
+"""
+
+import math
+import time
+
+import numpy as np
+import xarray as xr
+
+from ..analysis.force_chains import chain_statistics, find_chains
+from ..analysis.rates import steady_rate
+from ..breakage.weibull import split_disk
+from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from ..engine.timestep import linear_contact_time
+from .base import Param, RunInfo, Scene, register
+
+G = 9.81
+RANDOM_PACKING_2D = 0.82  # area fraction of a random 2D disk packing (filling -> solid area)
+
+PARAMS = (
+    Param("n_over_nc", 1.0, "rotation speed as a fraction of the critical speed", "1", 0.0, 3.0, lo_open=True),
+    Param("drum_radius", 0.05, "radius of the circle the wall disks' inner surfaces touch", "m", 0.0, lo_open=True),
+    Param("filling", 0.4, "charge volume / drum volume (bulk, at random 2D packing)", "1", 0.0, 1.0, True, True),
+    Param("n_grains", 0, "number of grains; 0 = from filling", "1", 0),
+    Param("grain_radius", 2.5e-3, "raw grain radius (mean)", "m", 0.0, lo_open=True),
+    Param("grain_radius_spread", 0.1, "raw radii uniform in R (1 -/+ spread)", "1", 0.0, 0.9),
+    Param("sieve_radius", 0.6e-3, "fragments smaller than this leave as dust", "m", 0.0, lo_open=True),
+    Param("wall_radius", 1.25e-3, "mean radius of the wall disks", "m", 0.0, lo_open=True),
+    Param("lifters", 16, "number of lifter bars", "1", 0),
+    Param("lifter_height", 5e-3, "radial height of a lifter bar", "m", 0.0),
+    Param("density", 2000.0, "grain density (2 g/cm3)", "kg m-3", 0.0, lo_open=True),
+    Param("thickness", 0.01, "disk thickness for masses (1 cm, assumed)", "m", 0.0, lo_open=True),
+    Param("stiffness", 8e3, "Y, elastic constant (8e6 g s-2)", "N m-1", 0.0, lo_open=True),
+    Param("gamma_n", 800.0, "normal damping rate gamma_N", "s-1", 0.0),
+    Param("gamma_t", 3000.0, "tangential damping rate gamma_T", "s-1", 0.0),
+    Param("friction", 0.5, "Coulomb friction coefficient", "1", 0.0),
+    Param("fragmentation", True, "Weibull fragmentation on/off"),
+    Param("weibull_c", 1e-8, "c of P = 1 - exp(-c R^-3 F^4); F_1/2 = (ln2 R^3/c)^(1/4)", "m3 N-4", 0.0, lo_open=True),
+    Param("twin_repulsion", 1e-3, "constant force separating twin fragments (eqs 19-20)", "N", 0.0),
+    Param("chain_threshold", 0.01, "force-chain criterion 2: sum of normal forces on a grain (1000 g cm s-2)", "N", 0.0),
+    Param("integrator", "gear", "time integrator (the paper: Gear 6th order)", choices=("gear", "verlet")),
+    Param("steps_per_contact", 25, "dt = t_c(smallest pair) / this, if dt = 0", "1", 10),
+    Param("dt", 0.0, "time step; 0 = from steps_per_contact", "s", 0.0),
+    Param("duration", 3.0, "simulated time", "s", 0.0, lo_open=True),
+    Param("transient", 1.0, "initial time discarded from steady-state statistics", "s", 0.0),
+    Param("record_interval", 0.01, "output cadence", "s", 0.0, lo_open=True),
+    Param("snapshot_interval", 0.25, "size-distribution snapshot cadence", "s", 0.0, lo_open=True),
+    Param("grid_cells", 24, "cells per side of the pressure / fracture maps", "1", 4),
+    Param("size_classes", 12, "radius classes of the size distribution", "1", 2),
+    Param("rate_blocks", 10, "blocks for the rate confidence interval", "1", 2),
+    Param("seed", 1, "random seed", "1", 0),
+)
+
+
+def _check(values):
+    if values["transient"] >= values["duration"]:
+        raise ValueError("transient: must be shorter than duration")
+    if values["sieve_radius"] >= values["grain_radius"] * (1 - values["grain_radius_spread"]):
+        raise ValueError("sieve_radius: must be below the smallest raw grain radius")
+
+
+def critical_speed(values):
+    """n_c [rev/s] = sqrt(g / R_eff) / (2 pi), R_eff = drum_radius - grain_radius."""
+    return math.sqrt(G / (values["drum_radius"] - values["grain_radius"])) / (2 * math.pi)
+
+
+def drum_wall(values, rng):
+    """Centres and radii of the wall ring and the lifter bars (one rigid body)."""
+    big = values["drum_radius"]
+    rw = values["wall_radius"]
+    # Centre spacing <= rw while two radii add up to >= 1.2 rw: neighbours always overlap, so
+    # no fragment can slip through; inner surfaces touch the circle of radius big.
+    count = math.ceil(2 * math.pi * (big + rw) / rw)
+    radii = rw * rng.uniform(0.6, 1.0, count)
+    phi = 2 * math.pi * np.arange(count) / count
+    centres = np.column_stack([(big + radii) * np.cos(phi), (big + radii) * np.sin(phi)])
+    if values["lifters"] and values["lifter_height"] > 0:
+        rl = 0.5 * rw
+        depth = np.arange(rl, values["lifter_height"] + 1e-12, rl)
+        phi = 2 * math.pi * np.arange(values["lifters"]) / values["lifters"]
+        d, f = np.meshgrid(depth, phi)
+        lifter = np.column_stack([((big - d) * np.cos(f)).ravel(), ((big - d) * np.sin(f)).ravel()])
+        centres = np.vstack([centres, lifter])
+        radii = np.concatenate([radii, np.full(len(lifter), rl)])
+    return centres, radii
+
+
+def _random_grains(values, count, rng, occupied_x, occupied_r):
+    """Random non-overlapping grains inside the drum (lowest free spots first: a settled start)."""
+    big = values["drum_radius"] - values["lifter_height"]
+    xs, rs = [], []
+    ox, orad = list(occupied_x), list(occupied_r)
+    tries = 0
+    while len(xs) < count:
+        tries += 1
+        if tries > 200 * count + 10000:
+            raise ValueError(f"filling: could not place {count} grains without overlap; lower filling")
+        r = values["grain_radius"] * rng.uniform(1 - values["grain_radius_spread"], 1 + values["grain_radius_spread"])
+        rad = (big - r) * math.sqrt(rng.uniform())
+        phi = rng.uniform(0, 2 * math.pi)
+        p = np.array([rad * math.cos(phi), rad * math.sin(phi)])
+        if ox:
+            d = np.linalg.norm(np.asarray(ox) - p, axis=1)
+            if (d < np.asarray(orad) + r).any():
+                continue
+        xs.append(p)
+        rs.append(r)
+        ox.append(p)
+        orad.append(r)
+    return np.array(xs).reshape(-1, 2), np.array(rs)
+
+
+def build(values):
+    rng = np.random.default_rng(values["seed"])
+    wall_x, wall_r = drum_wall(values, rng)
+    raw_area = math.pi * values["grain_radius"] ** 2 * (1 + values["grain_radius_spread"] ** 2 / 3)
+    n = values["n_grains"] or int(round(values["filling"] * RANDOM_PACKING_2D * math.pi * values["drum_radius"] ** 2 / raw_area))
+    grains_x, grains_r = _random_grains(values, n, rng, wall_x, wall_r)
+    x = np.vstack([wall_x, grains_x])
+    radius = np.concatenate([wall_r, grains_r])
+    body = np.concatenate([np.zeros(len(wall_r), dtype=np.int32), np.full(n, -1, dtype=np.int32)])
+    n_c = critical_speed(values)
+    omega = 2 * math.pi * values["n_over_nc"] * n_c
+    mat = Material("grain", values["density"])
+    table = MaterialTable([mat], {"*": Interaction(friction=values["friction"], normal_stiffness=values["stiffness"],
+                                                   normal_damping_rate=values["gamma_n"],
+                                                   tangential_damping_rate=values["gamma_t"])}, "linear_hw")
+    spec = PhysicsSpec(dim=2, contact_law="linear_hw", integrator=values["integrator"], bodies=True,
+                       normal_force_sum=True, fracture="weibull" if values["fragmentation"] else "")
+    # The smallest particle that can ever exist sets dt once: fragments down to the sieve size.
+    r_min = values["sieve_radius"] if values["fragmentation"] else float(grains_r.min())
+    m_min = values["density"] * math.pi * r_min**2 * values["thickness"]
+    t_c, _ = linear_contact_time(values["stiffness"], m_min / 2, values["gamma_n"])
+    sim = Simulation(spec, table, x=x, radius=radius, material="grain", body=body,
+                     bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(0, 0, 1), rate=-omega)],
+                     gravity=(0.0, -G, 0.0), thickness=values["thickness"],
+                     skin=0.5 * values["sieve_radius"], impact_speed=max(1.0, omega * values["drum_radius"]),
+                     fracture_c=values["weibull_c"], twin_repulsion=values["twin_repulsion"],
+                     seed=values["seed"], max_overlap=0.5)
+    # The time-step bound must hold for sieve-sized fragments too, not just the initial grains.
+    sim.dt_report = sim.dt_report.__class__(sim.dt_report.bounds + (_sieve_bound(values, spec),))
+    sim.set_time_step(values["dt"] if values["dt"] > 0 else t_c / values["steps_per_contact"])
+    return sim, n_c, omega
+
+
+def _sieve_bound(values, spec):
+    from ..engine.timestep import GEAR_OMEGA_DT_LIMIT, STEPS_PER_CONTACT_LIMIT, STEPS_PER_CONTACT_RECOMMENDED, StepBound
+
+    r = values["sieve_radius"] if values["fragmentation"] else values["grain_radius"] * (1 - values["grain_radius_spread"])
+    m_eff = values["density"] * math.pi * r**2 * values["thickness"] / 2
+    t_c, w0 = linear_contact_time(values["stiffness"], m_eff, values["gamma_n"])
+    limit = t_c / STEPS_PER_CONTACT_LIMIT
+    if spec.integrator == "gear":
+        limit = min(limit, GEAR_OMEGA_DT_LIMIT / w0)
+    return StepBound(f"the linear collision time {t_c:.4g} s of two sieve-sized fragments (r = {r:.3g} m)",
+                     limit, t_c / STEPS_PER_CONTACT_RECOMMENDED)
+
+
+class MillBookkeeping:
+    """Fracture handling and the running records of one ball-mill run."""
+
+    def __init__(self, values, sim, rng):
+        self.v = values
+        self.rng = rng
+        self.events = []  # (t, x, y, R, F)
+        self.dust_pending = 0.0  # removed dust mass not yet returned as a raw grain [kg]
+        self.dust_total = 0.0
+        self.raw_mass = values["density"] * math.pi * values["grain_radius"] ** 2 * values["thickness"]
+        self.initial_mass = self.grain_mass(sim)
+
+    def grain_mass(self, sim):
+        p = sim.particles
+        return float(self.mass(p.radius[p.body < 0]).sum())
+
+    def mass(self, r):
+        return self.v["density"] * math.pi * np.asarray(r) ** 2 * self.v["thickness"]
+
+    def on_fracture(self, sim):
+        """Split every grain that broke in the last step; sieve the dust; refill.
+
+        New fragments are twins of each other, of the other fragments created in the same step
+        that they overlap (children of twins that broke together) and of the parent's remaining
+        twins: all those overlaps are artefacts of the split, not compression.
+        """
+        p = sim.particles
+        parents, frag_x, frag_r, frag_v, frag_w, frag_parent = [], [], [], [], [], []
+        for i, j, force, _ in sim.pop_fractures():
+            if i in parents:
+                continue  # two contacts broke the same grain in one step: one split
+            d = p.x[i] - p.x[j]
+            centres, radii = split_disk(p.x[i].copy(), float(p.radius[i]), d / np.linalg.norm(d),
+                                        self.rng.uniform())
+            self.events.append((sim.time, p.x[i, 0], p.x[i, 1], float(p.radius[i]), force))
+            parents.append(i)
+            keep = radii >= self.v["sieve_radius"]
+            dust = float(self.mass(radii[~keep]).sum())
+            self.dust_pending += dust
+            self.dust_total += dust
+            for c, r in zip(centres[keep], radii[keep]):
+                # A fragment inherits the parent's rigid-body velocity at its centre.
+                frag_x.append(c)
+                frag_r.append(r)
+                frag_v.append(p.v[i] + np.cross(p.w[i], c - p.x[i]))
+                frag_w.append(p.w[i].copy())
+                frag_parent.append(i)
+        partners = {i: sim.twin_partners(i) for i in parents}
+        mask = np.zeros(sim.n_particles, bool)
+        mask[parents] = True
+        new_index = np.cumsum(~mask) - 1
+        sim.remove_particles(mask)
+        first = sim.n_particles
+        if frag_r:
+            sim.add_particles(np.array(frag_x), np.array(frag_r), "grain", v=np.array(frag_v),
+                              w=np.array(frag_w))
+            xs, rs = np.array(frag_x), np.array(frag_r)
+            for a in range(len(rs)):
+                for b in range(a + 1, len(rs)):
+                    if np.linalg.norm(xs[a] - xs[b]) < rs[a] + rs[b]:
+                        sim.mark_twins(first + a, first + b)
+                for q in partners[frag_parent[a]]:
+                    if not mask[q]:
+                        sim.mark_twins(first + a, int(new_index[q]))
+        self._refill(sim)
+
+    def _refill(self, sim):
+        """Return dust as raw grains (mass conserved exactly, constant filling)."""
+        while self.dust_pending >= self.raw_mass:
+            p = sim.particles
+            xy, r = _random_grains(dict(self.v, grain_radius_spread=0.0), 1, self.rng, p.x[:, :2], p.radius)
+            sim.add_particles(np.column_stack([xy, np.zeros(1)]), r, "grain")
+            self.dust_pending -= self.raw_mass
+
+
+def run(values, ctx):
+    t_wall = time.perf_counter()
+    sim, n_c, omega = build(values)
+    rng = np.random.default_rng(values["seed"] + 1)
+    book = MillBookkeeping(values, sim, rng) if values["fragmentation"] else None
+    record_steps = max(1, int(round(values["record_interval"] / sim.dt)))
+    total_steps = int(round(values["duration"] / sim.dt))
+    snap_every = max(1, int(round(values["snapshot_interval"] / values["record_interval"])))
+    big = values["drum_radius"]
+    cells = values["grid_cells"]
+    grid_edges = np.linspace(-big, big, cells + 1)
+    size_edges = np.linspace(values["sieve_radius"], values["grain_radius"] * (1 + values["grain_radius_spread"]),
+                             values["size_classes"] + 1)
+
+    series = {k: [] for k in ("time", "grains", "fracture_events", "dust_mass", "kinetic_energy", "drive_torque", "drive_power")}
+    pressure_sum = np.zeros((cells, cells))
+    pressure_n = np.zeros((cells, cells))
+    snapshots, size_dist = [], []
+    chains = []
+    last = {"impulse": sim.body_impulse[0, 5], "work": sim.body_work[0], "time": sim.time, "count": 0}
+
+    def observe(s):
+        p = s.particles
+        free = p.body < 0
+        dt_rec = s.time - last["time"]
+        series["time"].append(s.time)
+        series["grains"].append(int(free.sum()))
+        series["fracture_events"].append(len(book.events) if book else 0)
+        series["dust_mass"].append(book.dust_total if book else 0.0)
+        series["kinetic_energy"].append(s.kinetic_energy())
+        # The charge's torque on the drum about z; the drive supplies the opposite.
+        series["drive_torque"].append(-(s.body_impulse[0, 5] - last["impulse"]) / dt_rec)
+        series["drive_power"].append((s.body_work[0] - last["work"]) / dt_rec)
+        last.update(impulse=s.body_impulse[0, 5], work=s.body_work[0], time=s.time)
+        last["count"] += 1
+        if s.time < values["transient"]:
+            return
+        pressure = p.fn_sum / (2 * math.pi * p.radius * values["thickness"])
+        ix = np.clip(np.digitize(p.x[free, 0], grid_edges) - 1, 0, cells - 1)
+        iy = np.clip(np.digitize(p.x[free, 1], grid_edges) - 1, 0, cells - 1)
+        np.add.at(pressure_sum, (iy, ix), pressure[free])
+        np.add.at(pressure_n, (iy, ix), 1)
+        if book and last["count"] % snap_every == 0:
+            snapshots.append(s.time)
+            mass = book.mass(p.radius[free])
+            size_dist.append(np.histogram(p.radius[free], bins=size_edges, weights=mass)[0])
+        if not book:
+            i, j, _ = s.contact_pairs()
+            grain = (p.body[i] < 0) & (p.body[j] < 0)
+            found = find_chains(p.x[:, :2], i[grain], j[grain], p.fn_sum, values["chain_threshold"])
+            chains.append((found, p.fn_sum.copy(), pressure))
+        ctx.snapshot(s)
+
+    ctx.snapshot(sim)
+    sim.run(total_steps, chunk=record_steps, observer=observe, progress=ctx.progress,
+            on_fracture=book.on_fracture if book else None)
+
+    coords = {
+        "time": ("time", np.array(series.pop("time")), {"units": "s", "long_name": "simulated time"}),
+        "gx": ("gx", 0.5 * (grid_edges[1:] + grid_edges[:-1]), {"units": "m", "long_name": "map cell centre x"}),
+        "gy": ("gy", 0.5 * (grid_edges[1:] + grid_edges[:-1]), {"units": "m", "long_name": "map cell centre y"}),
+    }
+    units = {"grains": ("1", "grains in the mill"), "fracture_events": ("1", "cumulative fracture events"),
+             "dust_mass": ("kg", "cumulative dust removed"), "kinetic_energy": ("J", "kinetic energy of the grains"),
+             "drive_torque": ("N m", "torque the drive supplies (interval mean)"),
+             "drive_power": ("W", "power the drive supplies (interval mean)")}
+    data = {k: ("time", np.asarray(vals, dtype=float), {"units": units[k][0], "long_name": units[k][1]})
+            for k, vals in series.items()}
+    with np.errstate(invalid="ignore"):
+        data["pressure"] = (("gy", "gx"), np.where(pressure_n > 0, pressure_sum / np.maximum(pressure_n, 1), np.nan),
+                            {"units": "Pa", "long_name": "time-averaged grain pressure (normal forces / perimeter area)"})
+    steady = coords["time"][1] >= values["transient"]
+    data["mean_drive_power"] = ((), float(np.mean(data["drive_power"][1][steady])) if steady.any() else np.nan,
+                                {"units": "W", "long_name": "steady-state mean drive power"})
+    data["n_c"] = ((), n_c, {"units": "s-1", "long_name": "critical speed (rev/s)"})
+    data["n_over_nc"] = ((), values["n_over_nc"], {"units": "1", "long_name": "rotation speed / critical speed"})
+    if book:
+        ev = np.array(book.events).reshape(-1, 5)
+        coords["event"] = ("event", np.arange(len(ev)), {"units": "1", "long_name": "fracture event index"})
+        for col, (name, unit, long) in enumerate([("event_time", "s", "time of fracture"),
+                                                  ("event_x", "m", "x of the breaking grain"),
+                                                  ("event_y", "m", "y of the breaking grain"),
+                                                  ("event_radius", "m", "radius of the breaking grain"),
+                                                  ("event_force", "N", "peak normal force of the breaking contact")]):
+            data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
+        window = values["duration"] - values["transient"]
+        rate, half, _ = steady_rate(ev[:, 0], values["transient"], values["duration"], values["rate_blocks"])
+        data["comminution_rate"] = ((), rate, {"units": "s-1", "long_name": "steady-state fracture events per second"})
+        data["comminution_rate_ci"] = ((), half, {"units": "s-1", "long_name": "95% half-width (block averages)"})
+        after = ev[:, 0] >= values["transient"]
+        hist = np.histogram2d(ev[after, 1], ev[after, 2], bins=[grid_edges, grid_edges])[0].T
+        cell_area = (grid_edges[1] - grid_edges[0]) ** 2
+        data["fracture_frequency"] = (("gy", "gx"), hist / (window * cell_area),
+                                      {"units": "s-1 m-2", "long_name": "fracture events per time and area"})
+        coords["snapshot"] = ("snapshot", np.array(snapshots), {"units": "s", "long_name": "size snapshot time"})
+        coords["size_class"] = ("size_class", 0.5 * (size_edges[1:] + size_edges[:-1]), {"units": "m", "long_name": "grain radius class centre"})
+        data["size_class_edges"] = ("size_class_edge", size_edges, {"units": "m", "long_name": "radius class edges"})
+        data["size_distribution"] = (("snapshot", "size_class"), np.array(size_dist).reshape(-1, values["size_classes"]),
+                                     {"units": "kg", "long_name": "grain mass per radius class"})
+        data["mass_balance_error"] = ((), book.grain_mass(sim) + book.dust_pending - book.initial_mass,
+                                      {"units": "kg", "long_name": "grains + pending dust - initial grain mass"})
+    else:
+        stats = chain_statistics(chains)
+        coords["chain_length"] = ("chain_length", stats["lengths"], {"units": "1", "long_name": "grains in the chain"})
+        coords["chain_position"] = ("chain_position", stats["position"], {"units": "1", "long_name": "relative position along the chain"})
+        data["chain_count"] = ("chain_length", stats["count"], {"units": "1", "long_name": "chains per length (all records)"})
+        data["chain_max_pressure"] = ("chain_length", stats["max_pressure"], {"units": "Pa", "long_name": "mean of the largest grain pressure in a chain"})
+        data["chain_force_profile"] = ("chain_position", stats["load_profile"], {"units": "N", "long_name": "mean normal-force sum vs position in chain"})
+    ds = xr.Dataset(data, coords=coords)
+    return ds, RunInfo(seed=values["seed"], dt=sim.dt, steps=sim.step, wall_time_s=time.perf_counter() - t_wall,
+                       extra={"dt_limit": sim.dt_report.limit, "critical_speed_rev_s": n_c,
+                              "rotation_rate_rad_s": omega})
+
+
+register(Scene("ballmill2d", "2D ball mill with lifters: comminution rate, maps, force chains (seed 000)",
+               PARAMS, run, (_check,)))

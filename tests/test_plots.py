@@ -1,0 +1,179 @@
+"""Aggregation and figures on synthetic ball-mill case files (no simulation needed)."""
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from millsim.analysis.aggregate import aggregate, swept_parameters
+from millsim.cli import main
+from millsim.io import SnapshotWriter, read_case, write_case
+from millsim.plots import bond_austin_speed_factor
+
+DRUM = 0.05
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3):
+    """A case file with every variable of the ballmill2d contract, numbers made up from n/n_c."""
+    rng = np.random.default_rng(int(n_over_nc * 100))
+    time = np.linspace(0.0, 1.0, 11)
+    grid = np.linspace(-DRUM, DRUM, 8)
+    unit = {"units": "1"}
+    coords = {
+        "time": ("time", time, {"units": "s"}),
+        "gx": ("gx", grid, {"units": "m"}), "gy": ("gy", grid, {"units": "m"}),
+    }
+    data = {
+        "grains": ("time", np.full(11, 100.0), unit),
+        "kinetic_energy": ("time", rng.random(11), {"units": "J"}),
+        "pressure": (("gy", "gx"), rng.random((8, 8)) * 1e4, {"units": "Pa"}),
+        "mean_drive_power": ((), 2.0 * n_over_nc, {"units": "W"}),
+        "n_c": ((), 2.2, {"units": "s-1"}),
+        "n_over_nc": ((), n_over_nc, unit),
+    }
+    if fragmentation:
+        edges = np.geomspace(1e-4, 4e-3, 7)
+        coords |= {
+            "snapshot": ("snapshot", [0.5, 0.75, 1.0], {"units": "s"}),
+            "size_class": ("size_class", np.sqrt(edges[1:] * edges[:-1]), {"units": "m"}),
+            "event": ("event", np.arange(5), unit),
+        }
+        data |= {
+            "size_class_edges": ("size_class_edge", edges, {"units": "m"}),
+            "size_distribution": (("snapshot", "size_class"), rng.random((3, 6)), {"units": "kg"}),
+            "event_time": ("event", np.sort(rng.random(5)), {"units": "s"}),
+            "fracture_frequency": (("gy", "gx"), rng.random((8, 8)), {"units": "s-1 m-2"}),
+            # a rate peaked at n/n_c = 1, as seed 000 reports
+            "comminution_rate": ((), 10.0 * np.exp(-((n_over_nc - 1.0) ** 2)), {"units": "s-1"}),
+            "comminution_rate_ci": ((), 0.5, {"units": "s-1"}),
+        }
+    else:
+        length = np.arange(3, 8 if n_over_nc < 1 else 6)  # fast drums: no long chains
+        coords |= {"chain_length": ("chain_length", length, unit),
+                   "chain_position": ("chain_position", np.linspace(0.05, 0.95, 10), unit)}
+        data |= {
+            "chain_count": ("chain_length", 100.0 / length**2, unit),
+            "chain_max_pressure": ("chain_length", 1e4 * length, {"units": "Pa"}),
+            "chain_force_profile": ("chain_position", np.linspace(1.0, 2.0, 10), {"units": "N"}),
+        }
+    ds = xr.Dataset({k: xr.Variable(*v) for k, v in data.items()},
+                    coords={k: xr.Variable(*v) for k, v in coords.items()})
+    params = {"n_over_nc": n_over_nc, "drum_radius": DRUM, "filling": filling,
+              "fragmentation": fragmentation, "seed": 1}
+    write_case(path, ds, {"scene": "ballmill2d", "parameters": params, "seed": 1, "dt": 1e-5,
+                          "steps": 1000, "wall_time_s": float(n_over_nc)})
+    return path
+
+
+@pytest.fixture
+def cases(tmp_path):
+    # written out of order: the aggregate must sort them
+    return [synthetic_case(tmp_path / f"case_{s}.nc", s) for s in (1.0, 0.5, 1.5)]
+
+
+@pytest.fixture
+def chain_cases(tmp_path):
+    return [synthetic_case(tmp_path / f"chain_{s}.nc", s, fragmentation=False) for s in (0.5, 1.5)]
+
+
+def test_aggregate_stacks_along_speed_and_normalises_rate(cases):
+    ds = aggregate("ballmill2d", cases, ["n_over_nc"])
+    assert ds.sizes["n_over_nc"] == 3
+    assert list(ds["n_over_nc"].values) == [0.5, 1.0, 1.5]
+    rate = 10.0 * np.exp(-((ds["n_over_nc"].values - 1.0) ** 2))
+    np.testing.assert_allclose(ds["comminution_rate"], rate)
+    np.testing.assert_allclose(ds["relative_rate"], rate / rate.max())
+    np.testing.assert_allclose(ds["relative_rate_ci"], 0.5 / rate.max())
+    assert float(ds["relative_rate"].max()) == 1.0
+    np.testing.assert_allclose(ds["mean_drive_power"], 2.0 * ds["n_over_nc"])
+    # per-case records are gone, summaries stay
+    assert not {"time", "event", "snapshot"} & set(ds.dims)
+    assert ds["mass_fraction"].dims == ("n_over_nc", "size_class")
+    np.testing.assert_allclose(ds["mass_fraction"].sum("size_class"), 1.0)
+    assert (ds["mass_fraction_std"] > 0).all()
+    assert ds["pressure"].dims == ("n_over_nc", "gy", "gx")
+    # provenance: equal attributes survive, differing ones do not
+    assert ds.attrs["param_filling"] == 0.3 and ds.attrs["scene"] == "ballmill2d"
+    assert "wall_time_s" not in ds.attrs and "param_n_over_nc" not in ds.attrs
+
+
+def test_aggregate_defaults_to_swept_parameters_and_rejects_duplicates(cases, tmp_path):
+    assert swept_parameters([read_case(p) for p in cases]) == ["n_over_nc"]
+    twin = synthetic_case(tmp_path / "twin.nc", 1.0)
+    with pytest.raises(ValueError, match="share the same values of n_over_nc"):
+        aggregate("ballmill2d", [*cases, twin])
+    with pytest.raises(ValueError, match="not 'packing'"):
+        aggregate("packing", cases, ["n_over_nc"])
+
+
+def test_aggregate_over_two_parameters(tmp_path):
+    paths = [synthetic_case(tmp_path / f"{s}_{f}.nc", s, filling=f)
+             for s in (0.5, 1.0) for f in (0.2, 0.4)]
+    ds = aggregate("ballmill2d", paths)
+    assert ds["comminution_rate"].dims == ("filling", "n_over_nc")
+    # normalised along n/n_c for each filling separately
+    np.testing.assert_allclose(ds["relative_rate"].max("n_over_nc"), 1.0)
+
+
+def test_force_chain_aggregate_counts_missing_lengths_as_zero(chain_cases):
+    ds = aggregate("ballmill2d", chain_cases, ["n_over_nc"])
+    assert list(ds["chain_length"].values) == [3, 4, 5, 6, 7]
+    assert float(ds["chain_count"].sel(n_over_nc=1.5, chain_length=7)) == 0.0
+    assert np.isnan(float(ds["chain_max_pressure"].sel(n_over_nc=1.5, chain_length=7)))
+    assert "relative_rate" not in ds
+
+
+def test_reference_shape_peaks_at_one_near_critical_speed():
+    phi = np.linspace(0.0, 1.5, 1501)
+    shape = bond_austin_speed_factor(phi)
+    assert shape.max() == pytest.approx(1.0, abs=1e-6)
+    assert phi[shape.argmax()] == pytest.approx(0.941, abs=0.002)
+    assert shape[phi > 1.24].max() < 0.0  # where the empirical fit ends
+    # tabulated in reference/ballmill.md section 3
+    assert bond_austin_speed_factor(0.5) == pytest.approx(0.609, abs=1e-3)
+
+
+def _aggregate_cli(paths, out):
+    assert main(["aggregate", "ballmill2d", *map(str, paths), "--over", "n_over_nc",
+                 "--out", str(out)]) == 0
+    ds = read_case(out)
+    assert ds["n_over_nc"].attrs["units"] == "1"  # from the scene's parameter declaration
+    return out
+
+
+@pytest.mark.parametrize("kind", ["ballmill_rate", "ballmill_size_distributions",
+                                  "ballmill_fragmentation_maps"])
+def test_comminution_plots_are_pngs(cases, tmp_path, kind):
+    agg = _aggregate_cli(cases, tmp_path / "ballmill.nc")
+    out = tmp_path / f"{kind}.png"
+    assert main(["plot", kind, str(agg), "--out", str(out)]) == 0
+    assert out.read_bytes().startswith(PNG) and out.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("kind", ["ballmill_pressure_maps", "ballmill_force_chains"])
+def test_force_chain_plots_are_pngs(chain_cases, tmp_path, kind):
+    agg = _aggregate_cli(chain_cases, tmp_path / "forcechain.nc")
+    out = tmp_path / f"{kind}.png"
+    assert main(["plot", kind, str(agg), "--out", str(out)]) == 0
+    assert out.read_bytes().startswith(PNG) and out.stat().st_size > 10_000
+
+
+def test_unknown_plot_kind_exits_2(cases, tmp_path, capsys):
+    assert main(["plot", "pie", str(cases[0]), "--out", str(tmp_path / "x.png")]) == 2
+    assert "kind: unknown plot 'pie'" in capsys.readouterr().err
+
+
+def test_animation_is_a_gif_with_one_frame_per_snapshot(tmp_path):
+    from PIL import Image
+
+    angle = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    wall = DRUM * np.c_[np.cos(angle), np.sin(angle)]
+    with SnapshotWriter(tmp_path / "snap.h5", dim=2) as snaps:
+        for k in range(4):
+            grains = np.c_[np.linspace(-0.02, 0.02, 10), np.full(10, -0.03 + 0.005 * k)]
+            snaps.write(0.1 * k, np.r_[wall, grains], np.full(50, 0.004), np.ones((50, 2)) * k,
+                        kinematic=np.r_[np.ones(40), np.zeros(10)].astype("int32"))
+    out = tmp_path / "anim.gif"
+    assert main(["plot", "animation", str(tmp_path / "snap.h5"), "--out", str(out)]) == 0
+    with Image.open(out) as gif:
+        assert gif.format == "GIF" and gif.n_frames == 4
