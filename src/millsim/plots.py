@@ -99,7 +99,7 @@ def ballmill_size_distributions(ds: xr.Dataset, out: str) -> None:
                title="Fragment size distribution" + (f" ({label})" if label else "")
                + "\nline: mean over snapshots, band: \u00b11 standard deviation")
         ax.xaxis.set_major_formatter(LogFormatter())
-        ax.xaxis.set_minor_formatter(LogFormatter())
+        ax.xaxis.set_minor_formatter(LogFormatter(minor_thresholds=(2, 1)))
         ax.legend(fontsize="small", ncols=2)
     fig.savefig(out)
 
@@ -111,7 +111,7 @@ def _maps(ds: xr.Dataset, name: str, title: str, out: str) -> None:
     nrows = -(-len(panels) // ncols)
     fig = Figure(figsize=(3.2 * ncols + 1, 3.3 * nrows + 0.6), layout="constrained")
     axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
-    norm = Normalize(0.0, float(ds[name].max()))
+    norm = Normalize(0.0, float(ds[name].max()) or 1.0)  # all zero: white, not a symmetric scale
     for ax, (label, case, speed) in zip(axes, panels):
         mesh = ax.pcolormesh(case["gx"], case["gy"], case[name], shading="nearest", cmap="Greys",
                              norm=norm)

@@ -142,6 +142,7 @@ def build_chunk_runner(spec):
         x, v, w, acc, alpha = P.x, P.v, P.w, P.acc, P.alpha
         radius, inv_mass, inv_inertia = P.radius, P.inv_mass, P.inv_inertia
         material, body, x_ref, x_body0, gear = P.material, P.body, P.x_ref, P.x_body0, P.gear
+        fn_sum = P.fn_sum
         start, nbr, state, rev_start, rev_slot = C.start, C.nbr, C.state, C.rev_start, C.rev_slot
         n_walls = walls.shape[0]
         n_blocks = (n + BLOCK - 1) // BLOCK
@@ -398,7 +399,7 @@ def build_chunk_runner(spec):
                             wp[5] -= cp0 * g1 - cp1 * g0
                             wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
                     if PRESSURE:
-                        P.fn_sum[i] = FS
+                        fn_sum[i] = FS
                     if body[i] < 0:
                         a0 = F0 * inv_mass[i]
                         a1 = F1 * inv_mass[i]
@@ -470,15 +471,25 @@ def build_chunk_runner(spec):
                             wall_impulse[iw, c] += wall_part[blk, iw, c] * dt
                         wall_work[iw] -= wall_part[blk, iw, 6] * dt
                 wall_part[:, :, :] = 0.0
-            if FRACTURE:
-                # Collect this step's fracture decisions in slot order (deterministic).
+            if FRACTURE and stop[0] != 0:
+                # Collect this step's fracture decisions in slot order (deterministic); the buffer
+                # grows so that no decision is ever dropped.
+                needed = n_fractures[0]
+                for k in range(broke.shape[0]):
+                    needed += (broke[k] & 1) + ((broke[k] >> 1) & 1)
+                if needed > fractures.shape[0]:
+                    grown = np.empty((2 * needed, fractures.shape[1]))
+                    for q in range(n_fractures[0]):
+                        for c in range(fractures.shape[1]):
+                            grown[q, c] = fractures[q, c]
+                    fractures = grown
                 for i in range(n):
                     for k in range(start[i], start[i + 1]):
                         if broke[k] == 0:
                             continue
                         j = nbr[k]
                         for side in range(2):
-                            if broke[k] & (1 << side) and n_fractures[0] < fractures.shape[0]:
+                            if broke[k] & (1 << side):
                                 me, other = (i, j) if side == 0 else (j, i)
                                 row = fractures[n_fractures[0]]
                                 row[0] = me
@@ -503,6 +514,6 @@ def build_chunk_runner(spec):
                 peak = np.empty(nbr.shape[0] if FRACTURE else 0)
                 counters[0] += 1
         counters[1] += steps_done
-        return steps_done, start, nbr, state, rev_start, rev_slot
+        return steps_done, start, nbr, state, rev_start, rev_slot, fractures
 
     return run_chunk

@@ -97,7 +97,7 @@ class Simulation:
         self.state_columns = (3 if law.LAW_HAS_SPRING[spec.contact_law] else 0) + (
             3 if spec.fracture else 0)
         self.fracture_params = np.array([fracture_c, seed, twin_repulsion], dtype=float)
-        self.fractures = np.zeros((256, 4))  # [particle, partner, peak force, step]
+        self.fractures = np.zeros((64, 4))  # [particle, partner, peak force, step]; grows
         self.n_fractures = np.zeros(1, dtype=np.int64)
         self.particles = self._make_particles(x, radius, material, v, w, body)
         mean_d = 2.0 * float(np.mean(radius))
@@ -256,7 +256,8 @@ class Simulation:
                      self.counters, err, self.step, self.fracture_params, self.fractures,
                      self.n_fractures)
         done = int(out[0])
-        self.contacts = type(c)(*out[1:])
+        self.contacts = type(c)(*out[1:6])
+        self.fractures = out[6]
         self.step += done
         self.time += done * self.dt
         if err[0]:

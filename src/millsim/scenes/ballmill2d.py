@@ -102,23 +102,30 @@ def drum_wall(values, rng):
 
 
 def _random_grains(values, count, rng, occupied_x, occupied_r):
-    """Random non-overlapping grains inside the drum (lowest free spots first: a settled start)."""
+    """Random non-overlapping grains inside the drum, bottom first (a loose, nearly settled bed).
+
+    Candidates are drawn below a level that rises whenever free spots run out, so the charge
+    starts where it will lie instead of raining down from the whole drum.
+    """
     big = values["drum_radius"] - values["lifter_height"]
     xs, rs = [], []
     ox, orad = list(occupied_x), list(occupied_r)
-    tries = 0
+    level = -0.5 * big
+    misses = 0
     while len(xs) < count:
-        tries += 1
-        if tries > 200 * count + 10000:
+        if level > big:
             raise ValueError(f"filling: could not place {count} grains without overlap; lower filling")
         r = values["grain_radius"] * rng.uniform(1 - values["grain_radius_spread"], 1 + values["grain_radius_spread"])
         rad = (big - r) * math.sqrt(rng.uniform())
         phi = rng.uniform(0, 2 * math.pi)
         p = np.array([rad * math.cos(phi), rad * math.sin(phi)])
-        if ox:
-            d = np.linalg.norm(np.asarray(ox) - p, axis=1)
-            if (d < np.asarray(orad) + r).any():
-                continue
+        blocked = p[1] > level or (len(ox) and (np.linalg.norm(np.asarray(ox) - p, axis=1) < np.asarray(orad) + r).any())
+        if blocked:
+            misses += 1
+            if misses > 400:
+                level += 0.05 * big
+                misses = 0
+            continue
         xs.append(p)
         rs.append(r)
         ox.append(p)
