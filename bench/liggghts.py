@@ -9,16 +9,21 @@ history, E = 5e6 Pa, nu = 0.3, COR = 0.5, mu = 0.3), inputs in bench/liggghts/:
 
 Each run has two stages, both run in ``workdir``:
 
-1. untimed preparation (``in.<case>_settle``): writes ``<case>_settled.csv`` (id, position,
-   velocity, angular velocity, radius of the settled bed, so millsim can start the same case
-   from the same state), for the drum also ``<case>_settled_spun.csv`` (state after spin-up),
-   and ``<case>_settled.restart`` (the start of the timed stage);
+1. untimed preparation (``in.<case>_settle``): writes ``<case>_settled.csv`` (the settled bed,
+   so millsim can start the same case from the same state), for the drum also
+   ``<case>_settled_spun.csv`` (the state after spin-up, i.e. at the start of the timed run),
+   and ``<case>_settled.restart`` (the start of the timed stage, with contact histories).
+   CSV columns: id,x,y,z,vx,vy,vz,omegax,omegay,omegaz,radius (SI units, sorted by id);
 2. the timed stage (``in.<case>_bench``): 20,000 steps at dt 1e-6 from that restart.
 
-particle-steps/s = atoms * 20000 / "Loop time" of the timed stage.
+particle-steps/s = atoms * 20000 / "Loop time" of the timed stage. One core runs plain
+``liggghts``, more cores ``mpirun -np <cores> liggghts`` (box split in x/y, drum split along its
+axis, where the charge is uniform). ``timed_cpu_use_per_core`` well below 1 means other
+processes competed for the cores and the number is not clean.
 
 Cache: when the restart and the settled CSV already exist in ``workdir`` the preparation is
-skipped and only the timed stage runs. ``--quick`` shortens the preparation (box: settle 10k
+skipped and only the timed stage runs (the same workdir may serve several core counts; the
+restart reads on any number of ranks). ``--quick`` shortens the preparation (box: settle 10k
 steps; drum: settle 10k + spin-up 15k steps, so the drum flow is not yet steady); its files
 carry a ``_quick`` suffix so they never stand in for a full preparation. The timed stage is
 always the same 20,000 steps at dt 1e-6.
@@ -128,6 +133,7 @@ def dump_to_csv(dump: Path, out: Path) -> Path:
 
 
 def _children_cpu_s() -> float:
+    """CPU seconds of all finished child processes (and their children) of this process."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     return usage.ru_utime + usage.ru_stime
 
@@ -197,13 +203,15 @@ def run_liggghts(case: str, cores: int, workdir: Path, quick: bool = False) -> d
         log(f"reusing the prepared state {restart}")
     else:
         _, prep_wall, _ = _run_stage(binary, cores, f"in.{case}_settle", workdir,
-                                  {"state": state, **PREP_STEPS[case, quick]})
+                                     {"state": state, **PREP_STEPS[case, quick]})
         dump_to_csv(workdir / f"{state}.dump", settled_csv)
         if case == "drum":
             dump_to_csv(workdir / f"{state}_spun.dump", spun_csv)
 
     text, timed_wall, cpu_use = _run_stage(binary, cores, f"in.{case}_bench", workdir, {"state": state})
     stats = _timed_stats(text)
+    if cpu_use < 0.9:
+        log(f"timed stage got only {cpu_use:.0%} of {cores} core(s): other load; rerun for a clean number")
     if stats["steps"] != TIMED_STEPS or stats["n_particles"] != N_PARTICLES:
         raise RuntimeError(f"unexpected timed run: {stats}")
     return {

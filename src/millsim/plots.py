@@ -56,12 +56,12 @@ def _variants(ds: xr.Dataset):
 
 def _speed_colours(ds: xr.Dataset):
     speeds = ds[SPEED].values
-    norm = Normalize(speeds.min(), speeds.max() if speeds.max() > speeds.min() else speeds.min() + 1)
-    return [(s, ScalarMappable(norm, "viridis").to_rgba(s)) for s in speeds]
+    colour = ScalarMappable(Normalize(speeds.min(), speeds.max()), "viridis")
+    return [(s, colour.to_rgba(s)) for s in speeds]
 
 
 def ballmill_rate(ds: xr.Dataset, out: str) -> None:
-    """Fig. 6: relative comminution rate vs n/n_c with the empirical power shape; drive power below."""
+    """Fig. 6: relative comminution rate vs n/n_c, the empirical power shape, drive power."""
     fig = Figure(figsize=(7, 7.5), layout="constrained")
     ax_rate, ax_power = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
     for label, sub in _variants(ds):
@@ -75,7 +75,7 @@ def ballmill_rate(ds: xr.Dataset, out: str) -> None:
                        r"$\varphi\,(1-0.1/2^{9-10\varphi})$, normalised")
     ax_rate.set(ylabel=_label(ds["relative_rate"], "relative comminution rate"), ylim=(0, None),
                 title="Comminution rate vs rotation speed")
-    ax_rate.legend(fontsize="small")
+    ax_rate.legend(fontsize="small", loc="upper left")
     ax_power.set(xlabel=_label(ds[SPEED], "rotation speed n/n_c"),
                  ylabel=_label(ds["mean_drive_power"], "mean drive power"), ylim=(0, None),
                  title="Drive power")
@@ -87,7 +87,7 @@ def ballmill_size_distributions(ds: xr.Dataset, out: str) -> None:
     """Fig. 5: mass fraction per size class for each speed, mean and spread over snapshots."""
     variants = list(_variants(ds))
     fig = Figure(figsize=(7, 4.5 * len(variants)), layout="constrained")
-    for ax, (label, sub) in zip(np.atleast_1d(fig.subplots(len(variants), 1)), variants):
+    for ax, (label, sub) in zip(fig.subplots(len(variants), 1, squeeze=False)[:, 0], variants):
         radius_um = sub["size_class"] * 1e6  # LogFormatter writes numbers >= 1 plainly
         for speed, colour in _speed_colours(sub):
             mean = sub["mass_fraction"].sel({SPEED: speed})
@@ -106,11 +106,12 @@ def ballmill_size_distributions(ds: xr.Dataset, out: str) -> None:
 
 def _maps(ds: xr.Dataset, name: str, title: str, out: str) -> None:
     """One map of ``name`` per case on a shared grey scale, with the drum outline."""
-    panels = [(label, sub.sel({SPEED: s}), s) for label, sub in _variants(ds) for s in sub[SPEED].values]
+    panels = [(label, sub.sel({SPEED: s}), s)
+              for label, sub in _variants(ds) for s in sub[SPEED].values]
     ncols = min(len(panels), 4)
     nrows = -(-len(panels) // ncols)
     fig = Figure(figsize=(3.2 * ncols + 1, 3.3 * nrows + 0.6), layout="constrained")
-    axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
     norm = Normalize(0.0, float(ds[name].max()) or 1.0)  # all zero: white, not a symmetric scale
     for ax, (label, case, speed) in zip(axes, panels):
         mesh = ax.pcolormesh(case["gx"], case["gy"], case[name], shading="nearest", cmap="Greys",
@@ -142,25 +143,27 @@ def ballmill_force_chains(ds: xr.Dataset, out: str) -> None:
     """Figs. 10-11: chain-length distribution, maximum pressure and force along a chain."""
     fig = Figure(figsize=(14, 4.5), layout="constrained")
     ax_count, ax_pressure, ax_force = fig.subplots(1, 3)
+    panels = {ax_count: ("chain_length", "chain_count"),
+              ax_pressure: ("chain_length", "chain_max_pressure"),
+              ax_force: ("chain_position", "chain_force_profile")}
     for label, sub in _variants(ds):
         for speed, colour in _speed_colours(sub):
             case = sub.sel({SPEED: speed})
-            name = f"n/n_c = {speed:g}" + (f", {label}" if label else "")
-            count = case["chain_count"]
-            ax_count.plot(case["chain_length"], count.where(count > 0), "o-", color=colour,
-                          label=name)  # log axis: no chains of a length is a gap, not a drop
-            ax_pressure.plot(case["chain_length"], case["chain_max_pressure"], "o-", color=colour,
-                             label=name)
-            ax_force.plot(case["chain_position"], case["chain_force_profile"], "o-", color=colour,
-                          label=name)
+            # log axis: a length without chains is a gap, not a drop
+            case["chain_count"] = case["chain_count"].where(case["chain_count"] > 0)
+            for ax, (x, y) in panels.items():
+                ax.plot(case[x], case[y], "o-", color=colour,
+                        label=f"n/n_c = {speed:g}" + (f", {label}" if label else ""))
     ax_count.set(yscale="log", xlabel=_label(ds["chain_length"], "chain length L"),
-                 ylabel=_label(ds["chain_count"], "number of chains"), title="Chain-length distribution")
+                 ylabel=_label(ds["chain_count"], "number of chains"),
+                 title="Chain-length distribution")
     ax_pressure.set(xlabel=_label(ds["chain_length"], "chain length L"),
                     ylabel=_label(ds["chain_max_pressure"], "mean maximum pressure"),
                     title="Maximum pressure in a chain")
     ax_force.set(xlabel=_label(ds["chain_position"], "relative position along the chain"),
-                 ylabel=_label(ds["chain_force_profile"], "mean force"), title="Force along a chain")
-    for ax in (ax_count, ax_pressure, ax_force):
+                 ylabel=_label(ds["chain_force_profile"], "mean force"),
+                 title="Force along a chain")
+    for ax in panels:
         ax.legend(fontsize="small")
     fig.suptitle("Force chains (run without fragmentation)")
     fig.savefig(out)
@@ -169,7 +172,8 @@ def ballmill_force_chains(ds: xr.Dataset, out: str) -> None:
 def _frame(group):
     """Positions (N x 2), radii, speeds and the wall mask of one snapshot frame."""
     radius = group["radius"][:]
-    wall = group["kinematic"][:].astype(bool) if "kinematic" in group else np.zeros(len(radius), bool)
+    wall = (group["kinematic"][:].astype(bool) if "kinematic" in group
+            else np.zeros(len(radius), bool))
     speed = np.linalg.norm(group["velocity"][:, :2], axis=1)
     return group["position"][:, :2], radius, speed, wall
 
@@ -219,5 +223,6 @@ def plot(kind: str, source: str | os.PathLike[str], out: str | os.PathLike[str])
         animation(source, os.fspath(out))
         return
     if kind not in PLOTS:
-        raise ValueError(f"kind: unknown plot {kind!r}; known: {', '.join([*PLOTS, 'animation'])}")
+        known = ", ".join([*PLOTS, "animation"])
+        raise ValueError(f"kind: unknown plot {kind!r}; known: {known}")
     PLOTS[kind](read_case(source), os.fspath(out))

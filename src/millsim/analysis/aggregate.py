@@ -22,7 +22,8 @@ PER_CASE_DIMS = ("time", "event", "snapshot")
 def swept_parameters(cases: Sequence[xr.Dataset]) -> list[str]:
     """Names of the parameters whose values differ between ``cases``, sorted."""
     params = [case_parameters(ds) for ds in cases]
-    return [key for key in sorted(params[0]) if any(p.get(key) != params[0][key] for p in params[1:])]
+    first, *rest = params
+    return [key for key in sorted(first) if any(p.get(key) != first[key] for p in rest)]
 
 
 def stack_cases(cases: Sequence[xr.Dataset], over: Sequence[str],

@@ -51,7 +51,7 @@ PARAMS = (
     Param("gamma_t", 3000.0, "tangential damping rate gamma_T", "s-1", 0.0),
     Param("friction", 0.5, "Coulomb friction coefficient", "1", 0.0),
     Param("fragmentation", True, "Weibull fragmentation on/off"),
-    Param("weibull_c", 1e-8, "c of P = 1 - exp(-c R^-3 F^4); F_1/2 = (ln2 R^3/c)^(1/4)", "m3 N-4", 0.0, lo_open=True),
+    Param("weibull_c", 1e-9, "c of P = 1 - exp(-c R^-3 F^4); F_1/2 = (ln2 R^3/c)^(1/4)", "m3 N-4", 0.0, lo_open=True),
     Param("twin_repulsion", 1e-3, "constant force separating twin fragments (eqs 19-20)", "N", 0.0),
     Param("chain_threshold", 0.01, "force-chain criterion 2: sum of normal forces on a grain (1000 g cm s-2)", "N", 0.0),
     Param("integrator", "gear", "time integrator (the paper: Gear 6th order)", choices=("gear", "verlet")),

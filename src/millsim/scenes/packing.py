@@ -3,8 +3,8 @@
 The engine's throughput case (same geometry and material as the LIGGGHTS baseline in
 ``shared/reference/peers.md`` part B): a settling stage at a coarse step, then the timed stage at
 ``dt``. The drum variant adds a spin-up stage and reports the torque and power the shell delivers.
-A settled state from another code (text file: x y z [vx vy vz] per line, SI) can replace the
-settling stage, so both codes start from the same bed.
+A settled state from another code (CSV with a header: x, y, z and optionally vx..., omegax...)
+can replace the settling stage, so both codes start from the same bed.
 """
 
 import math
@@ -39,7 +39,7 @@ PARAMS = (
     Param("dt", 1e-6, "time step of the timed stage", "s", 0.0, lo_open=True),
     Param("steps", 20000, "steps of the timed stage", "1", 1),
     Param("record_every", 1000, "output cadence of the timed stage", "steps", 1),
-    Param("init_file", "", "settled state to start from (x y z [vx vy vz] per line, m and m/s)"),
+    Param("init_file", "", "settled state to start from (CSV: x,y,z[,vx,vy,vz][,omegax,omegay,omegaz])"),
     Param("seed", 12345, "random seed of the lattice jitter", "1", 0),
 )
 
@@ -84,6 +84,18 @@ def _walls(values):
             dict(kind="plane", point=(0, values["drum_length"], 0), normal=(0, -1, 0), material="grain")]
 
 
+def read_state(path):
+    """Positions, velocities, spins from a CSV with a header (x, y, z[, vx, vy, vz][, omegax, ...]),
+    e.g. a LIGGGHTS dump converted by bench/liggghts.py. SI units, drum axis through the origin."""
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    names = data.dtype.names
+    missing = {"x", "y", "z"} - set(names)
+    if missing:
+        raise ValueError(f"init_file: columns {sorted(missing)} missing in {path}")
+    cols = lambda keys: np.column_stack([data[k] for k in keys]) if set(keys) <= set(names) else None
+    return cols(("x", "y", "z")), cols(("vx", "vy", "vz")), cols(("omegax", "omegay", "omegaz"))
+
+
 def build(values):
     """The settled-or-lattice Simulation of this scene (shared with the throughput benchmark)."""
     rng = np.random.default_rng(values["seed"])
@@ -94,17 +106,13 @@ def build(values):
                           "hertz_mindlin")
     spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", integrator=values["integrator"],
                        rolling_friction=values["rolling_friction"] > 0, walls=True)
-    v = None
+    v = w = None
     if values["init_file"]:
-        data = np.loadtxt(values["init_file"], ndmin=2)
-        if data.shape[1] not in (3, 6):
-            raise ValueError(f"init_file: expected 3 or 6 columns, got {data.shape[1]}")
-        x = data[:, :3]
-        v = data[:, 3:6] if data.shape[1] == 6 else None
+        x, v, w = read_state(values["init_file"])
     else:
         x = _lattice(values, rng)
     radius = np.full(len(x), values["radius"])
-    return Simulation(spec, table, x=x, radius=radius, material="grain", v=v, walls=_walls(values),
+    return Simulation(spec, table, x=x, radius=radius, material="grain", v=v, w=w, walls=_walls(values),
                       skin=values["skin"], dt=values["settle_dt"], impact_speed=1.0)
 
 

@@ -1,0 +1,115 @@
+# Ball mill 2D (seed 000): comminution rate vs rotation speed, fragment sizes, fracture and
+# pressure maps, force chains, and animated cases. Every case is one `millsim run ballmill2d`.
+#
+# `snakemake --lint` asks for a conda env or container per rule: every rule runs the `millsim`
+# installed with this workflow's own Python (see common.smk), so there is no second environment
+# to declare.
+
+
+localrules:
+    aggregate_ballmill,
+    aggregate_ballmill_forcechain,
+    plot_ballmill,
+    animate_ballmill,
+
+
+# Cached between workflows (`--cache`), hence no benchmark: directive; the wall time of each
+# run is in its case file (attribute wall_time_s).
+rule simulate_ballmill:
+    output:
+        case=case_file("ballmill"),
+    log:
+        case_log("simulate_ballmill", "ballmill"),
+    cache: True
+    threads: 1
+    params:
+        sets=case_sets("ballmill"),
+        engine=ENGINE,
+    shell:
+        "millsim run ballmill2d {params.sets} --threads {threads} --out {output.case} > {log} 2>&1"
+
+
+use rule simulate_ballmill as simulate_ballmill_forcechain with:
+    output:
+        case=case_file("ballmill_forcechain"),
+    log:
+        case_log("simulate_ballmill_forcechain", "ballmill_forcechain"),
+    cache: True  # not inherited
+    params:
+        sets=case_sets("ballmill_forcechain"),
+        engine=ENGINE,
+
+
+rule simulate_ballmill_snapshots:
+    output:
+        case=case_file("ballmill_animation"),
+        snapshots=case_file("ballmill_animation", "snapshots.h5"),
+        xdmf=case_file("ballmill_animation", "snapshots.xdmf"),
+    log:
+        case_log("simulate_ballmill_snapshots", "ballmill_animation"),
+    cache: True
+    threads: 1
+    params:
+        sets=case_sets("ballmill_animation"),
+        engine=ENGINE,
+    shell:
+        "millsim run ballmill2d {params.sets} --threads {threads} --out {output.case}"
+        " --snapshots {output.snapshots} > {log} 2>&1"
+
+
+rule aggregate_ballmill:
+    input:
+        cases=case_files("ballmill"),
+    output:
+        "results/aggregate/ballmill.nc",
+    log:
+        "results/logs/aggregate_ballmill.log",
+    params:
+        over=stack_over("ballmill"),
+    shell:
+        "millsim aggregate ballmill2d {input.cases} {params.over} --out {output} > {log} 2>&1"
+
+
+use rule aggregate_ballmill as aggregate_ballmill_forcechain with:
+    input:
+        cases=case_files("ballmill_forcechain"),
+    output:
+        "results/aggregate/ballmill_forcechain.nc",
+    log:
+        "results/logs/aggregate_ballmill_forcechain.log",
+    params:
+        over=stack_over("ballmill_forcechain"),
+
+
+rule plot_ballmill:
+    input:
+        plot_source,
+    output:
+        report(
+            "results/plots/ballmill_{kind}.png",
+            caption="../report/ballmill_plot.rst",
+            category="Ball mill 2D",
+            labels={"figure": "{kind}"},
+        ),
+    log:
+        "results/logs/plot_ballmill/{kind}.log",
+    wildcard_constraints:
+        kind="|".join(BALLMILL_PLOTS),
+    shell:
+        "millsim plot ballmill_{wildcards.kind} {input} --out {output} > {log} 2>&1"
+
+
+rule animate_ballmill:
+    input:
+        case_file("ballmill_animation", "snapshots.h5"),
+    output:
+        report(
+            f"results/plots/ballmill_animation/{case_label('ballmill_animation')}.gif",
+            caption="../report/ballmill_animation.rst",
+            category="Ball mill 2D",
+            labels={"figure": "animation", "case": case_label("ballmill_animation")},
+        ),
+    log:
+        case_log("animate_ballmill", "ballmill_animation"),
+    shell:
+        "millsim plot animation {input} --out {output} > {log} 2>&1"

@@ -1,0 +1,151 @@
+"""Configuration: validation, the cases of every study, and the paths the rules share.
+
+A study is one scene run over a parameter space: fixed parameters plus the Cartesian product of
+the swept ones (those given as lists). Case paths encode the swept values, e.g.
+results/cases/ballmill/n_over_nc~0.5/case.nc; fixed parameters reach the jobs as params, so a
+change of either re-runs exactly the affected cases.
+"""
+
+import os
+import shlex
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+from snakemake.utils import Paramspace, validate
+
+import millsim
+from millsim.scenes.base import get_scene
+
+validate(config, schema="../schemas/config.schema.yaml")
+
+# The rules call `millsim`; the one beside this Python comes first, so that a virtual
+# environment works without being activated.
+os.environ.update(
+    PATH=os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
+)
+
+# A simulate rule's param: Snakemake's code trigger does not see the imported package.
+ENGINE = millsim.provenance_hash()
+
+
+@dataclass(frozen=True)
+class Study:
+    space: Paramspace  # swept parameters, one row per case
+    fixed: dict  # parameter -> command-line string, the same for every case
+
+
+def make_study(block, scene, values, stack_over, **pinned):
+    """The study of ``scene`` with ``values`` (lists are swept), each case checked by the scene.
+
+    ``stack_over`` are swept even when given one value: the aggregate needs them as dimensions.
+    ``pinned`` are set by the study itself, whatever the config says.
+    """
+    values = {**values, **pinned}
+    swept = [
+        *stack_over,
+        *(k for k, v in values.items() if isinstance(v, list) and k not in stack_over),
+    ]
+    grid = pd.MultiIndex.from_product(
+        [values[k] if isinstance(values[k], list) else [values[k]] for k in swept],
+        names=swept,
+    ).to_frame(index=False)
+    study = Study(
+        Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}
+    )
+    # str() of each value, exactly as Paramspace writes it into the case path
+    for row in grid.itertuples(index=False):
+        try:
+            get_scene(scene).resolve(
+                {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
+            )
+        except ValueError as exc:
+            raise ValueError(f"config {block}: {exc}") from None
+    return study
+
+
+BALLMILL = config["ballmill"]
+
+
+def ballmill_study(block, fragmentation):
+    """`ballmill.parameters` overridden by `ballmill.<block>`, stacked over n/n_c."""
+    values = {**BALLMILL["parameters"], **BALLMILL[block]}
+    return make_study(
+        f"ballmill.{block}",
+        "ballmill2d",
+        values,
+        ["n_over_nc"],
+        fragmentation=fragmentation,
+    )
+
+
+STUDIES = {
+    "ballmill": ballmill_study("parameters", fragmentation=True),
+    "ballmill_forcechain": ballmill_study("forcechain", fragmentation=False),
+    "ballmill_animation": ballmill_study("animation", fragmentation=True),
+}
+
+# figure -> the aggregate it is drawn from (results/plots/ballmill_<figure>.png)
+BALLMILL_PLOTS = {
+    "rate": "ballmill",
+    "size_distributions": "ballmill",
+    "fragmentation_maps": "ballmill",
+    "pressure_maps": "ballmill_forcechain",
+    "force_chains": "ballmill_forcechain",
+}
+
+
+def case_file(study, name="case.nc"):
+    """Path pattern of one file of a case, with one wildcard per swept parameter."""
+    return f"results/cases/{study}/{STUDIES[study].space.wildcard_pattern}/{name}"
+
+
+def case_files(study, name="case.nc"):
+    return [
+        f"results/cases/{study}/{case}/{name}"
+        for case in STUDIES[study].space.instance_patterns
+    ]
+
+
+def case_log(rule, study):
+    return f"results/logs/{rule}/{STUDIES[study].space.wildcard_pattern}.log"
+
+
+def case_label(study):
+    return STUDIES[study].space.wildcard_pattern
+
+
+def case_sets(study):
+    """Params function: the case's parameters as `--set key=value` arguments of `millsim run`."""
+
+    def sets(wildcards):
+        swept = {k: wildcards[k] for k in STUDIES[study].space.dataframe.columns}
+        values = {**STUDIES[study].fixed, **swept}
+        # sorted: reordering the config must not look like a change of parameters
+        return " ".join(
+            f"--set {shlex.quote(f'{k}={v}')}" for k, v in sorted(values.items())
+        )
+
+    return sets
+
+
+def stack_over(study):
+    """`millsim aggregate` arguments naming the dimensions: the swept parameters."""
+    return " ".join(f"--over {k}" for k in STUDIES[study].space.dataframe.columns)
+
+
+def plot_source(wildcards):
+    return f"results/aggregate/{BALLMILL_PLOTS[wildcards.kind]}.nc"
+
+
+def all_targets():
+    return [
+        "results/aggregate/ballmill.nc",
+        "results/aggregate/ballmill_forcechain.nc",
+        *(f"results/plots/ballmill_{kind}.png" for kind in BALLMILL_PLOTS),
+        *(
+            f"results/plots/ballmill_animation/{case}.gif"
+            for case in STUDIES["ballmill_animation"].space.instance_patterns
+        ),
+    ]
