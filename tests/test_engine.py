@@ -9,7 +9,6 @@ import textwrap
 import numpy as np
 import pytest
 
-from helpers import random_gas
 from millsim.engine import (Interaction, Material, MaterialTable, PhysicsSpec, Simulation,
                             SimulationError, TimeStepError)
 from millsim.engine.neighbours import brute_force_pairs, build_verlet

@@ -25,7 +25,7 @@ from numba import njit, prange
 
 from . import contact as law
 from ..breakage.weibull import fracture_probability
-from .kinematics import body_pose, wall_contact
+from .kinematics import ROTATE, body_pose, wall_contact
 from .neighbours import build_verlet, min_image, wrap_periodic
 from .rng import hash_uniform
 
@@ -457,9 +457,9 @@ def build_chunk_runner(spec):
                 for b in range(bodies.shape[0]):
                     for c in range(6):
                         body_impulse[b, c] += body_load[b, c] * dt
-                    # Power the body puts in = -(load on body) . (its velocity), minus sign below.
+                    # Power the body puts in: minus the load it receives dotted with its velocity.
                     a0, a1, a2, rate = bodies[b, 4], bodies[b, 5], bodies[b, 6], bodies[b, 7]
-                    if int(bodies[b, 0]) == 0:
+                    if int(bodies[b, 0]) == ROTATE:
                         power = -(body_load[b, 3] * a0 + body_load[b, 4] * a1 + body_load[b, 5] * a2) * rate
                     else:
                         power = -(body_load[b, 0] * a0 + body_load[b, 1] * a1 + body_load[b, 2] * a2) * rate
