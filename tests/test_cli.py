@@ -64,3 +64,19 @@ def test_unknown_scene_from_a_real_process(tmp_path):
     assert proc.returncode == 2
     assert "scene: unknown scene 'nosuchscene'" in proc.stderr
     assert not out.exists()
+
+
+@pytest.mark.parametrize("container", ["box", "drum"])
+def test_packing_case_file(tmp_path, container):
+    out = tmp_path / "p.nc"
+    # Three lattice layers in the box (one layer of 400 would have no contacts at all).
+    assert main(["run", "packing", "--set", f"container={container}", "--set", "n=1200",
+                 "--set", "settle_steps=3000", "--set", "spinup_steps=1000", "--set", "steps=1000",
+                 "--set", "record_every=500", "--out", str(out), "--quiet"]) == 0
+    ds = read_case(out)
+    assert ds.attrs["scene"] == "packing" and ds.attrs["steps"] == 3000 + (1000 if container == "drum" else 0) + 1000
+    assert float(ds.particle_steps_per_second) > 0
+    assert (ds.contacts_per_particle > 0).all()
+    if container == "drum":
+        # The shell drives the charge: positive mean power into it.
+        assert float(ds.shell_power) > 0
