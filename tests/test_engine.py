@@ -229,3 +229,14 @@ def test_scene_compiles_only_the_physics_it_uses(tmp_path):
                          check=True)
     used, hertz, history = map(int, out.stdout.split())
     assert used == 1 and hertz == 0 and history == 0
+
+
+def test_smallest_radius_hint_sets_the_bound_from_the_start():
+    """A scene that will create fragments down to r_min gets their step bound before they exist."""
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
+    hinted = Simulation(spec, _table(), x=[[0, 0, 0]], radius=[2e-3], material="m", smallest_radius=1e-4)
+    grown = Simulation(spec, _table(), x=[[0, 0, 0]], radius=[2e-3], material="m")
+    grown.add_particles([[0.01, 0, 0]], [1e-4], "m")
+    assert hinted.dt_report.limit == pytest.approx(grown.dt_report.limit, rel=1e-12)
+    hinted.add_particles([[0.01, 0, 0]], [1e-4], "m")
+    assert hinted.dt_report.limit == pytest.approx(grown.dt_report.limit, rel=1e-12)

@@ -68,12 +68,14 @@ class Simulation:
         fracture_c: Weibull constant c [m^3 N^-4] of seed 000 (spec.fracture == "weibull").
         twin_repulsion: constant force [N] pushing twin fragments apart until they separate.
         seed: seed of the counter-based random numbers drawn inside the step loop.
+        smallest_radius: the smallest free particle that can ever exist [m] (fragments down to a
+            sieve size): the time-step bounds hold for it from the start, so dt never has to change.
     """
 
     def __init__(self, spec: PhysicsSpec, table, x, radius, material, v=None, w=None, body=None,
                  walls=(), bodies=(), gravity=(0.0, 0.0, -9.81), box_lo=None, box_len=None,
                  skin=None, dt=None, impact_speed=1.0, max_overlap=0.3, v_max=None, thickness=1.0,
-                 fracture_c=0.0, twin_repulsion=0.0, seed=0):
+                 fracture_c=0.0, twin_repulsion=0.0, seed=0, smallest_radius=None):
         if table.contact_law != spec.contact_law:
             raise ValueError(f"contact_law: table uses {table.contact_law!r}, spec {spec.contact_law!r}")
         self.spec = spec
@@ -92,6 +94,7 @@ class Simulation:
         if (self.box_len > 0).any() != spec.periodic:
             raise ValueError("box_len: periodic lengths given iff spec.periodic is true")
         self.impact_speed = float(impact_speed)
+        self.smallest_radius = None if smallest_radius is None else float(smallest_radius)
         self.max_overlap = float(max_overlap)
         self.v_max = float(v_max) if v_max is not None else max(100.0, 10.0 * self.impact_speed)
         self.state_columns = (3 if law.LAW_HAS_SPRING[spec.contact_law] else 0) + (
@@ -204,8 +207,18 @@ class Simulation:
     def _time_step_report(self):
         p = self.particles
         mass = np.where(p.inv_mass > 0, 1.0 / np.where(p.inv_mass > 0, p.inv_mass, 1.0), np.inf)
+        radius, material, body = p.radius, p.material, p.body
+        if self.smallest_radius is not None:
+            # One virtual particle of the smallest possible size per free material.
+            mats = np.unique(material[body < 0])
+            density = np.array([self.table.materials[m].density for m in mats])
+            r = np.full(len(mats), self.smallest_radius)
+            radius = np.concatenate([radius, r])
+            mass = np.concatenate([mass, disk_or_sphere_mass(r, density, self.spec.dim, self.thickness)])
+            material = np.concatenate([material, mats])
+            body = np.concatenate([body, np.full(len(mats), -1)])
         boundary = [int(m) for m in self.walls[:, 9]] + [int(m) for m in p.material[p.body >= 0]]
-        return time_step_report(self.table, self.spec, p.radius, mass, p.material, p.body,
+        return time_step_report(self.table, self.spec, radius, mass, material, body,
                                 boundary, self.impact_speed)
 
     # ---- running ------------------------------------------------------------------------------

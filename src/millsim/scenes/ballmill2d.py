@@ -159,24 +159,9 @@ def build(values):
                      gravity=(0.0, -G, 0.0), thickness=values["thickness"],
                      skin=0.5 * values["sieve_radius"], impact_speed=max(1.0, omega * values["drum_radius"]),
                      fracture_c=values["weibull_c"], twin_repulsion=values["twin_repulsion"],
-                     seed=values["seed"], max_overlap=0.5)
-    # The time-step bound must hold for sieve-sized fragments too, not just the initial grains.
-    sim.dt_report = sim.dt_report.__class__(sim.dt_report.bounds + (_sieve_bound(values, spec),))
+                     seed=values["seed"], max_overlap=0.5, smallest_radius=r_min)
     sim.set_time_step(values["dt"] if values["dt"] > 0 else t_c / values["steps_per_contact"])
     return sim, n_c, omega
-
-
-def _sieve_bound(values, spec):
-    from ..engine.timestep import GEAR_OMEGA_DT_LIMIT, STEPS_PER_CONTACT_LIMIT, STEPS_PER_CONTACT_RECOMMENDED, StepBound
-
-    r = values["sieve_radius"] if values["fragmentation"] else values["grain_radius"] * (1 - values["grain_radius_spread"])
-    m_eff = values["density"] * math.pi * r**2 * values["thickness"] / 2
-    t_c, w0 = linear_contact_time(values["stiffness"], m_eff, values["gamma_n"])
-    limit = t_c / STEPS_PER_CONTACT_LIMIT
-    if spec.integrator == "gear":
-        limit = min(limit, GEAR_OMEGA_DT_LIMIT / w0)
-    return StepBound(f"the linear collision time {t_c:.4g} s of two sieve-sized fragments (r = {r:.3g} m)",
-                     limit, t_c / STEPS_PER_CONTACT_RECOMMENDED)
 
 
 class MillBookkeeping:

@@ -98,6 +98,18 @@ class Scene:
         return values
 
 
+# Particle size and material constants shared by the engine-level scenes (the LIGGGHTS baseline's).
+SOLID_PARAMS = (
+    Param("radius", 1e-3, "particle radius", "m", 0.0, lo_open=True),
+    Param("density", 2500.0, "particle density", "kg m-3", 0.0, lo_open=True),
+    Param("youngs_modulus", 5e6, "Young's modulus (hertz_mindlin)", "Pa", 0.0, lo_open=True),
+    Param("poisson_ratio", 0.3, "Poisson ratio (hertz_mindlin)", "1", -1.0, 0.5, True, True),
+    Param("restitution", 0.5, "coefficient of restitution (linear_history, hertz_mindlin)", "1", 0.0, 1.0,
+          lo_open=True),
+    Param("friction", 0.3, "sliding friction coefficient", "1", 0.0),
+)
+
+
 @dataclass
 class RunContext:
     """How a run reports: progress lines, and optional particle snapshots (HDF5 + XDMF)."""

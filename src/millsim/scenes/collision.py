@@ -18,7 +18,7 @@ from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulati
 from ..engine.contact import TWO_SQRT_5_6
 from ..engine.materials import damping_ratio, effective_moduli
 from ..engine.state import disk_or_sphere_mass
-from .base import Param, RunInfo, Scene, register
+from .base import SOLID_PARAMS, Param, RunInfo, Scene, register
 
 HERTZ_TIME_FACTOR = 2.9433  # t_c = 2 (xi_max / v) int_0^1 dx / sqrt(1 - x^(5/2))
 
@@ -30,12 +30,7 @@ PARAMS = (
     Param("end_of_contact", "force", "force: normal force clipped at zero (physical); overlap: "
           "unclipped, contact ends at zero overlap (textbook convention, verification only)",
           choices=("force", "overlap")),
-    Param("radius", 1e-3, "particle radius", "m", 0.0, lo_open=True),
-    Param("density", 2500.0, "particle density", "kg m-3", 0.0, lo_open=True),
-    Param("youngs_modulus", 5e6, "Young's modulus (hertz_mindlin)", "Pa", 0.0, lo_open=True),
-    Param("poisson_ratio", 0.3, "Poisson ratio (hertz_mindlin)", "1", -1.0, 0.5, True, True),
-    Param("restitution", 0.5, "coefficient of restitution (linear_history, hertz_mindlin)", "1", 0.0, 1.0, lo_open=True),
-    Param("friction", 0.3, "sliding friction coefficient", "1", 0.0),
+    *SOLID_PARAMS,
     Param("normal_stiffness", 8e3, "linear spring constant (seed 000: Y = 8e6 g s-2)", "N m-1", 0.0, lo_open=True),
     Param("normal_damping_rate", 800.0, "seed 000 gamma_N (linear_hw)", "s-1", 0.0),
     Param("tangential_damping_rate", 1000.0, "seed 000 gamma_T (linear_hw)", "s-1", 0.0),

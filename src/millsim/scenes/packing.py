@@ -14,18 +14,13 @@ import numpy as np
 import xarray as xr
 
 from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from .base import Param, RunInfo, Scene, register
+from .base import SOLID_PARAMS, Param, RunInfo, Scene, register
 
 PARAMS = (
     Param("n", 10000, "number of spheres", "1", 1),
     Param("container", "box", "box: walled square box open at the top; drum: rotating cylinder",
           choices=("box", "drum")),
-    Param("radius", 1e-3, "sphere radius", "m", 0.0, lo_open=True),
-    Param("density", 2500.0, "sphere density", "kg m-3", 0.0, lo_open=True),
-    Param("youngs_modulus", 5e6, "Young's modulus", "Pa", 0.0, lo_open=True),
-    Param("poisson_ratio", 0.3, "Poisson ratio", "1", -1.0, 0.5, True, True),
-    Param("restitution", 0.5, "coefficient of restitution", "1", 0.0, 1.0, lo_open=True),
-    Param("friction", 0.3, "sliding friction coefficient", "1", 0.0),
+    *SOLID_PARAMS,
     Param("rolling_friction", 0.0, "rolling friction coefficient (EDEM standard)", "1", 0.0),
     Param("box_width", 0.044, "box side (box)", "m", 0.0, lo_open=True),
     Param("drum_radius", 0.04, "drum inner radius (drum)", "m", 0.0, lo_open=True),
