@@ -24,12 +24,18 @@ import numpy as np
 from numba import njit, prange
 
 from . import contact as law
+from . import lubrication as lub
 from ..breakage.weibull import fracture_probability
 from .kinematics import ROTATE, body_pose, wall_contact
 from .neighbours import build_verlet, min_image, wrap_periodic
 from .rng import hash_uniform
 
 SLOT_WIDTH = 8  # per-slot results, one cache line: force on i, n x F_t, overlap, normal force
+# Energy audit terms [J]: contact normal damping, tangential force x centre slip, tangential force x
+# rotational slip (+ rolling friction), lubrication normal (squeeze), lubrication tangential.
+N_AUDIT = 5
+AUDIT_TERMS = ("contact_normal_damping", "contact_tangential_translation",
+               "contact_tangential_rotation", "lubrication_normal", "lubrication_tangential")
 BLOCK = 256
 FAST = law.FAST  # particles per reduction block (fixed, so sums do not depend on the thread count)
 
@@ -111,6 +117,30 @@ def _gear_correct(i, dt, x, v, w, acc, alpha, gear, a0, a1, a2, b0, b1, b2):
         gear[i, 5, a] += GEAR_C5 * dA * 60.0 / (dt * dt * dt)
 
 
+@njit(inline="always", cache=True)
+def _lubricate_pair(o, col_t, col_d, ri, rj, n0, n1, n2, h, v, w, i, j, fluid):
+    """Add the pair lubrication of (i, j) to slot record ``o`` when the gap is below h_max.
+
+    Force on i joins the contact force (o[0:3]); the torques on i and j (not opposite for unequal
+    radii) go to o[col_t:col_t+6]; the normal and tangential dissipation to o[col_d:col_d+2] when
+    col_d >= 0. Cutoffs are fractions of the smaller diameter: fluid = [eta, h_min/d, h_max/d].
+    """
+    d_min = 2.0 * min(ri, rj)
+    if h >= fluid[2] * d_min:
+        return
+    F0, F1, F2, Ti0, Ti1, Ti2, Tj0, Tj1, Tj2, Dn, Dt = lub.pair_force_torque(
+        ri, rj, n0, n1, n2, h, v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
+        w[i, 0], w[i, 1], w[i, 2], w[j, 0], w[j, 1], w[j, 2], fluid[1] * d_min, fluid[0])
+    o[0] += F0
+    o[1] += F1
+    o[2] += F2
+    o[col_t], o[col_t + 1], o[col_t + 2] = Ti0, Ti1, Ti2
+    o[col_t + 3], o[col_t + 4], o[col_t + 5] = Tj0, Tj1, Tj2
+    if col_d >= 0:
+        o[col_d] += Dn
+        o[col_d + 1] += Dt
+
+
 def build_chunk_runner(spec):
     """Compile (or load from cache) the chunk runner for a :class:`~millsim.engine.spec.PhysicsSpec`."""
     # Plain booleans (not comparisons with module attributes) so numba prunes the unused laws
@@ -127,22 +157,44 @@ def build_chunk_runner(spec):
     SPRING = law.LAW_HAS_SPRING[spec.contact_law]
     PRESSURE = spec.normal_force_sum
     FRACTURE = spec.fracture == "weibull"
-    # Contact-event columns after the tangential spring: largest normal force of the event, twin
-    # flag and overlap one step ago (seed 000 twin relief, eqs 19-20).
+    TAVARES = spec.fracture == "tavares"
+    # The breakage model's damage law is imported only by the scenes that break that way.
+    if TAVARES:
+        from ..breakage.tavares import damage_fraction
+    else:
+        damage_fraction = None
+    # Contact-event columns after the tangential spring. Weibull (seed 000): largest normal force
+    # of the event, twin flag, twin reference overlap (eqs 19-20). Tavares (seed 002): overlap and
+    # normal force one step ago (loading work), reference overlap of progeny created inside each
+    # other (only overlap beyond it counts).
     C_FMAX = 3 if SPRING else 0
     C_TWIN = C_FMAX + 1
     C_XIP = C_FMAX + 2
+    C_PREV, C_FPREV, C_REF = C_FMAX, C_FMAX + 1, C_FMAX + 2
+    # Same for wall contacts (wall_hist columns after the tangential spring).
+    W_PREV, W_FPREV = 3, 4
+    LUB = spec.lubrication
+    AUDIT = spec.energy_audit
+    # Slot record after the 8 base columns: Tavares loading work given to i and to j; lubrication
+    # torques on i and on j; energy audit powers (contact normal damping, tangential force on the
+    # translational and on the rotational part of the slip, lubrication normal and tangential).
+    C_WORK = SLOT_WIDTH
+    C_LUB = C_WORK + (2 if TAVARES else 0)
+    C_AUD = C_LUB + (6 if LUB else 0)
+    SLOT = C_AUD + (N_AUDIT if AUDIT else 0)
+    COL_D = C_AUD + 3 if AUDIT else -1
 
     @njit(parallel=True, cache=True, fastmath=FAST)
     def run_chunk(n_steps, t, dt, P, C, pair_params, walls, wall_hist, bodies, body_members,
                   gravity, box_lo, box_len, skin, dim, max_overlap, v_max,
                   body_load, body_impulse, body_work, wall_impulse, wall_work, counters, err,
-                  step0, fracture_params, fractures, n_fractures):
+                  step0, fracture_params, fractures, n_fractures, breakage, reach, fluid,
+                  dissipation):
         n = P.x.shape[0]
         x, v, w, acc, alpha = P.x, P.v, P.w, P.acc, P.alpha
         radius, inv_mass, inv_inertia = P.radius, P.inv_mass, P.inv_inertia
         material, body, x_ref, x_body0, gear = P.material, P.body, P.x_ref, P.x_body0, P.gear
-        fn_sum = P.fn_sum
+        fn_sum, e_acc, e_frac = P.fn_sum, P.e_acc, P.e_frac
         start, nbr, state, rev_start, rev_slot = C.start, C.nbr, C.state, C.rev_start, C.rev_slot
         n_walls = walls.shape[0]
         n_blocks = (n + BLOCK - 1) // BLOCK
@@ -150,6 +202,7 @@ def build_chunk_runner(spec):
         v_max2 = v_max * v_max
         rebuild = np.zeros(1, dtype=np.int64)
         wall_part = np.zeros((n_blocks, max(n_walls, 1), 7))
+        audit_part = np.zeros((n_blocks if AUDIT else 0, N_AUDIT))
 
         # Start the first step (Verlet drift / Gear predictor) and place body particles at t + dt.
         for i in prange(n):
@@ -167,8 +220,11 @@ def build_chunk_runner(spec):
         # Per-slot results: force on i, n x F_t and the overlap (torque on either body is
         # -(r - xi/2) n x F_t: lever arms that add up to the distance conserve angular momentum),
         # and the rolling torques on i and j when rolling friction is compiled in.
-        out = np.empty((nbr.shape[0], SLOT_WIDTH))
+        out = np.empty((nbr.shape[0], SLOT))
         proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
+        # Tavares breakage per particle (flag, direction of its largest contact force).
+        brk = np.zeros(n if TAVARES else 0, dtype=np.int8)
+        brk_dir = np.zeros((n if TAVARES else 0, 3))
         # Fracture decisions per slot (bit 1: i breaks, bit 2: j breaks), made when an event ends.
         # (np.empty, not np.zeros: numba's parfor pass mishandles np.zeros re-assigned in the step
         # loop; every slot is written in pass 1 before it is read.)
@@ -194,10 +250,18 @@ def build_chunk_runner(spec):
                             state[k, 0] = 0.0
                             state[k, 1] = 0.0
                             state[k, 2] = 0.0
-                        for a in range(SLOT_WIDTH):
+                        if TAVARES:
+                            state[k, C_PREV] = 0.0
+                            state[k, C_FPREV] = 0.0
+                            state[k, C_REF] = 0.0
+                        for a in range(SLOT):
                             out[k, a] = 0.0
                         if ROLLING:
                             proll[k, :, :] = 0.0
+                        if LUB:
+                            dist = math.sqrt(dist2)
+                            _lubricate_pair(out[k], C_LUB, COL_D, radius[i], radius[j], d0 / dist,
+                                            d1 / dist, d2 / dist, dist - rsum, v, w, i, j, fluid)
                         if FRACTURE:
                             # The contact event ended: one fracture trial per body at its peak force.
                             fmax = state[k, C_FMAX]
@@ -224,12 +288,28 @@ def build_chunk_runner(spec):
                     n0, n1, n2 = d0 * inv, d1 * inv, d2 * inv
                     xi = rsum - dist
                     ri, rj = radius[i], radius[j]
-                    if xi > max_overlap * min(ri, rj) and err[0] == 0:
-                        # Twin fragments start deeply overlapped by construction: only the
-                        # overlap beyond their reference counts.
-                        if not (FRACTURE and state[k, C_TWIN] > 0.0) or \
-                                xi - state[k, C_XIP] > max_overlap * min(ri, rj):
-                            err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
+                    # Fragments start deeply overlapped by construction: only the overlap beyond
+                    # their reference counts, for the force and for the guard.
+                    xi_c = xi
+                    if FRACTURE and state[k, C_TWIN] > 0.0:
+                        xi_c = xi - state[k, C_XIP]
+                    if TAVARES and state[k, C_REF] > 0.0:
+                        xi_c = xi - state[k, C_REF]
+                        state[k, C_REF] = min(state[k, C_REF], xi)
+                        if xi_c <= 0.0:
+                            if SPRING:
+                                state[k, 0] = 0.0
+                                state[k, 1] = 0.0
+                                state[k, 2] = 0.0
+                            state[k, C_PREV] = 0.0
+                            state[k, C_FPREV] = 0.0
+                            for a in range(SLOT):
+                                out[k, a] = 0.0
+                            if ROLLING:
+                                proll[k, :, :] = 0.0
+                            continue
+                    if xi_c > max_overlap * min(ri, rj) and err[0] == 0:
+                        err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
                     # Relative velocity of i's contact point w.r.t. j's: dv - (ai wi + aj wj) x n,
                     # lever arms a = r - xi/2 (the contact point sits mid-overlap).
                     ai = ri - 0.5 * xi
@@ -254,17 +334,20 @@ def build_chunk_runner(spec):
                         else:
                             fn = fracture_params[2]
                         state[k, C_XIP] = min(ref, xi)
+                        fn_el = fn
                         f0 = 0.0
                         f1 = 0.0
                         f2 = 0.0
                     elif LINEAR_HW:
                         fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff, CLIP)
+                        fn_el = p[law.P_K_N] * xi
                     elif LINEAR_HISTORY:
                         fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff,
                                                             CLIP, state, k, dt)
+                        fn_el = p[law.P_K_N] * xi
                     else:
-                        fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xi, n0, n1, n2, vr0, vr1, vr2,
-                                                                  m_eff, ri * rj / rsum, CLIP,
+                        fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xi_c, n0, n1, n2, vr0, vr1,
+                                                                  vr2, m_eff, ri * rj / rsum, CLIP,
                                                                   state, k, dt)
                     o = out[k]
                     o[0] = fn * n0 + f0
@@ -275,6 +358,33 @@ def build_chunk_runner(spec):
                     o[5] = n0 * f1 - n1 * f0
                     o[6] = xi
                     o[7] = fn
+                    if LUB or AUDIT:
+                        for a in range(C_LUB, SLOT):
+                            o[a] = 0.0
+                    if AUDIT:
+                        # Dissipated power: dashpot part of the normal force, and the tangential
+                        # force against the slip of the centres and of the surfaces' rotation.
+                        vn = vr0 * n0 + vr1 * n1 + vr2 * n2
+                        dv0 = v[i, 0] - v[j, 0]
+                        dv1 = v[i, 1] - v[j, 1]
+                        dv2 = v[i, 2] - v[j, 2]
+                        o[C_AUD] = -(fn - fn_el) * vn
+                        o[C_AUD + 1] = -(f0 * dv0 + f1 * dv1 + f2 * dv2)
+                        o[C_AUD + 2] = -(f0 * (vr0 - dv0) + f1 * (vr1 - dv1) + f2 * (vr2 - dv2))
+                    if LUB:
+                        _lubricate_pair(o, C_LUB, COL_D, ri, rj, n0, n1, n2, -xi, v, w, i, j, fluid)
+                    if TAVARES:
+                        # Loading work (elastic + damping) while the overlap grows, trapezoidal in
+                        # the overlap; each body takes the share of eq 4: the other's stiffness
+                        # over the sum.
+                        dxi = xi_c - state[k, C_PREV]
+                        work = 0.5 * (fn + state[k, C_FPREV]) * dxi if dxi > 0.0 else 0.0
+                        state[k, C_PREV] = xi_c
+                        state[k, C_FPREV] = fn
+                        ki = breakage[material[i], 0]
+                        kj = breakage[material[j], 0]
+                        o[8] = work * kj / (ki + kj)
+                        o[9] = work * ki / (ki + kj)
                     if FRACTURE:
                         broke[k] = 0
                         if state[k, C_TWIN] == 0.0 and fn > state[k, C_FMAX]:
@@ -287,6 +397,10 @@ def build_chunk_runner(spec):
                         for a in range(3):
                             proll[k, 0, a] = -mr * ri * w[i, a] / wi if wi > 0.0 else 0.0
                             proll[k, 1, a] = -mr * rj * w[j, a] / wj if wj > 0.0 else 0.0
+                        if AUDIT:
+                            o[C_AUD + 2] -= (proll[k, 0, 0] * w[i, 0] + proll[k, 0, 1] * w[i, 1]
+                                             + proll[k, 0, 2] * w[i, 2] + proll[k, 1, 0] * w[j, 0]
+                                             + proll[k, 1, 1] * w[j, 1] + proll[k, 1, 2] * w[j, 2])
 
             # ---- pass 2: per particle, in fixed blocks ----------------------------------------
             last = step == n_steps - 1 or stop[0] != 0
@@ -302,11 +416,30 @@ def build_chunk_runner(spec):
                     R1 = 0.0
                     R2 = 0.0
                     FS = 0.0
+                    L0 = 0.0  # lubrication torques
+                    L1 = 0.0
+                    L2 = 0.0
+                    EA = 0.0  # loading work absorbed this step (Tavares)
+                    FBIG = 0.0  # largest contact normal force and its direction (Tavares)
+                    D0 = 0.0
+                    D1 = 0.0
+                    D2 = 0.0
                     ri = radius[i]
                     for k in range(start[i], start[i + 1]):
                         o = out[k]
                         if PRESSURE:
                             FS += o[7]
+                        if TAVARES:
+                            EA += o[C_WORK]
+                            if o[7] > FBIG:
+                                FBIG, D0, D1, D2 = o[7], o[0], o[1], o[2]
+                        if LUB:
+                            L0 += o[C_LUB]
+                            L1 += o[C_LUB + 1]
+                            L2 += o[C_LUB + 2]
+                        if AUDIT:
+                            for a in range(N_AUDIT):
+                                audit_part[blk, a] += o[C_AUD + a]
                         F0 += o[0]
                         F1 += o[1]
                         F2 += o[2]
@@ -323,6 +456,14 @@ def build_chunk_runner(spec):
                         o = out[k]
                         if PRESSURE:
                             FS += o[7]
+                        if TAVARES:
+                            EA += o[C_WORK + 1]
+                            if o[7] > FBIG:
+                                FBIG, D0, D1, D2 = o[7], -o[0], -o[1], -o[2]
+                        if LUB:
+                            L0 += o[C_LUB + 3]
+                            L1 += o[C_LUB + 4]
+                            L2 += o[C_LUB + 5]
                         F0 -= o[0]
                         F1 -= o[1]
                         F2 -= o[2]
@@ -334,17 +475,51 @@ def build_chunk_runner(spec):
                             R0 += proll[k, 1, 0]
                             R1 += proll[k, 1, 1]
                             R2 += proll[k, 1, 2]
-                    T0 = R0 - C0
-                    T1 = R1 - C1
-                    T2 = R2 - C2
+                    T0 = R0 - C0 + L0
+                    T1 = R1 - C1 + L1
+                    T2 = R2 - C2 + L2
                     if WALLS and body[i] < 0:
                         for iw in range(n_walls):
                             xi, n0, n1, n2, u0, u1, u2 = wall_contact(walls[iw], x[i, 0], x[i, 1],
                                                                       x[i, 2], radius[i])
+                            if LUB and -xi < fluid[2] * 2.0 * ri:
+                                # Sphere-wall lubrication (also during contact, at h >= h_min); the
+                                # wall spins at omega about its axis (0 for planes).
+                                om = walls[iw, 8]
+                                g0, g1, g2, c0, c1, c2, Dn, Dt = lub.wall_force_torque(
+                                    ri, n0, n1, n2, -xi, v[i, 0] - u0, v[i, 1] - u1, v[i, 2] - u2,
+                                    w[i, 0], w[i, 1], w[i, 2], om * walls[iw, 4], om * walls[iw, 5],
+                                    om * walls[iw, 6], fluid[1] * 2.0 * ri, fluid[0])
+                                F0 += g0
+                                F1 += g1
+                                F2 += g2
+                                T0 += c0
+                                T1 += c1
+                                T2 += c2
+                                if AUDIT:
+                                    audit_part[blk, 3] += Dn
+                                    audit_part[blk, 4] += Dt
+                                # Reaction on the wall: force through the sphere's centre plus the
+                                # couple, about the wall's point p; power = F . (wall velocity
+                                # at the centre) + couple . wall spin.
+                                cp0 = x[i, 0] - walls[iw, 1]
+                                cp1 = x[i, 1] - walls[iw, 2]
+                                cp2 = x[i, 2] - walls[iw, 3]
+                                uc0 = u0 + ri * om * (walls[iw, 5] * n2 - walls[iw, 6] * n1)
+                                uc1 = u1 + ri * om * (walls[iw, 6] * n0 - walls[iw, 4] * n2)
+                                uc2 = u2 + ri * om * (walls[iw, 4] * n1 - walls[iw, 5] * n0)
+                                wp = wall_part[blk, iw]
+                                wp[0] -= g0
+                                wp[1] -= g1
+                                wp[2] -= g2
+                                wp[3] -= cp1 * g2 - cp2 * g1 + c0
+                                wp[4] -= cp2 * g0 - cp0 * g2 + c1
+                                wp[5] -= cp0 * g1 - cp1 * g0 + c2
+                                wp[6] -= g0 * uc0 + g1 * uc1 + g2 * uc2 + om * (
+                                    c0 * walls[iw, 4] + c1 * walls[iw, 5] + c2 * walls[iw, 6])
                             if xi <= 0.0:
-                                wall_hist[i, iw, 0] = 0.0
-                                wall_hist[i, iw, 1] = 0.0
-                                wall_hist[i, iw, 2] = 0.0
+                                for c in range(wall_hist.shape[2]):
+                                    wall_hist[i, iw, c] = 0.0
                                 continue
                             if xi > max_overlap * ri and err[0] == 0:
                                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
@@ -358,9 +533,11 @@ def build_chunk_runner(spec):
                             if LINEAR_HW:
                                 fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2,
                                                                m_eff, CLIP)
+                                fn_el = p[law.P_K_N] * xi
                             elif LINEAR_HISTORY:
                                 fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1,
                                                                     vr2, m_eff, CLIP, hist, iw, dt)
+                                fn_el = p[law.P_K_N] * xi
                             else:
                                 fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xi, n0, n1, n2, vr0,
                                                                           vr1, vr2, m_eff, ri, CLIP,
@@ -368,6 +545,24 @@ def build_chunk_runner(spec):
                             g0 = fn * n0 + f0
                             g1 = fn * n1 + f1
                             g2 = fn * n2 + f2
+                            if AUDIT:
+                                dv0 = v[i, 0] - u0
+                                dv1 = v[i, 1] - u1
+                                dv2 = v[i, 2] - u2
+                                audit_part[blk, 0] -= (fn - fn_el) * (vr0 * n0 + vr1 * n1 + vr2 * n2)
+                                audit_part[blk, 1] -= f0 * dv0 + f1 * dv1 + f2 * dv2
+                                audit_part[blk, 2] -= (f0 * (vr0 - dv0) + f1 * (vr1 - dv1)
+                                                       + f2 * (vr2 - dv2))
+                            if TAVARES:
+                                dxi = xi - hist[iw, W_PREV]
+                                if dxi > 0.0:
+                                    kp = breakage[material[i], 0]
+                                    kw = breakage[int(walls[iw, 9]), 0]
+                                    EA += 0.5 * (fn + hist[iw, W_FPREV]) * dxi * kw / (kp + kw)
+                                hist[iw, W_PREV] = xi
+                                hist[iw, W_FPREV] = fn
+                                if fn > FBIG:
+                                    FBIG, D0, D1, D2 = fn, g0, g1, g2
                             c0 = -ai * (n1 * f2 - n2 * f1)
                             c1 = -ai * (n2 * f0 - n0 * f2)
                             c2 = -ai * (n0 * f1 - n1 * f0)
@@ -378,6 +573,8 @@ def build_chunk_runner(spec):
                                     c0 -= mr * w[i, 0]
                                     c1 -= mr * w[i, 1]
                                     c2 -= mr * w[i, 2]
+                                    if AUDIT:
+                                        audit_part[blk, 2] += mr * wn * wn
                             F0 += g0
                             F1 += g1
                             F2 += g2
@@ -400,6 +597,24 @@ def build_chunk_runner(spec):
                             wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
                     if PRESSURE:
                         fn_sum[i] = FS
+                    if TAVARES and body[i] < 0:
+                        # Stressing event: absorbed energy summed over contacts (eq 14). Break as
+                        # soon as it reaches the fracture energy; when no contact loads any more
+                        # the event ends and an unbroken particle is damaged (eqs 5-6).
+                        brk[i] = 0
+                        if EA > 0.0:
+                            e_acc[i] += EA
+                            if e_acc[i] * inv_mass[i] >= e_frac[i]:
+                                brk[i] = 1
+                                brk_dir[i, 0], brk_dir[i, 1], brk_dir[i, 2] = D0, D1, D2
+                                stop[0] = 1
+                        elif e_acc[i] > 0.0:
+                            specific = e_acc[i] * inv_mass[i]
+                            mt = material[i]
+                            if specific >= breakage[mt, 2]:
+                                e_frac[i] *= 1.0 - damage_fraction(specific / e_frac[i],
+                                                                   breakage[mt, 1])
+                            e_acc[i] = 0.0
                     if body[i] < 0:
                         a0 = F0 * inv_mass[i]
                         a1 = F1 * inv_mass[i]
@@ -464,6 +679,11 @@ def build_chunk_runner(spec):
                     else:
                         power = -(body_load[b, 0] * a0 + body_load[b, 1] * a1 + body_load[b, 2] * a2) * rate
                     body_work[b] += power * dt
+            if AUDIT:
+                for blk in range(n_blocks):
+                    for a in range(N_AUDIT):
+                        dissipation[a] += audit_part[blk, a] * dt
+                        audit_part[blk, a] = 0.0
             if WALLS:
                 for iw in range(n_walls):
                     for blk in range(n_blocks):
@@ -471,6 +691,27 @@ def build_chunk_runner(spec):
                             wall_impulse[iw, c] += wall_part[blk, iw, c] * dt
                         wall_work[iw] -= wall_part[blk, iw, 6] * dt
                 wall_part[:, :, :] = 0.0
+            if TAVARES and stop[0] != 0:
+                # Breakage rows in particle order: [particle, specific energy absorbed, step,
+                # direction of the largest contact force (3)].
+                needed = n_fractures[0]
+                for i in range(n):
+                    needed += brk[i]
+                if needed > fractures.shape[0]:
+                    grown = np.empty((2 * needed, fractures.shape[1]))
+                    for q in range(n_fractures[0]):
+                        for c in range(fractures.shape[1]):
+                            grown[q, c] = fractures[q, c]
+                    fractures = grown
+                for i in range(n):
+                    if brk[i]:
+                        row = fractures[n_fractures[0]]
+                        row[0] = i
+                        row[1] = e_acc[i] * inv_mass[i]
+                        row[2] = step0 + step
+                        row[3], row[4], row[5] = brk_dir[i, 0], brk_dir[i, 1], brk_dir[i, 2]
+                        n_fractures[0] += 1
+                        brk[i] = 0
             if FRACTURE and stop[0] != 0:
                 # Collect this step's fracture decisions in slot order (deterministic); the buffer
                 # grows so that no decision is ever dropped.
@@ -505,10 +746,10 @@ def build_chunk_runner(spec):
                 if PERIODIC:
                     wrap_periodic(x, body, box_lo, box_len)
                 start, nbr, state, rev_start, rev_slot = build_verlet(
-                    x, radius, body, skin, dim, box_lo, box_len, start, nbr, state)
+                    x, radius, body, skin + reach, dim, box_lo, box_len, start, nbr, state)
                 x_ref[:, :] = x
                 rebuild[0] = 0
-                out = np.empty((nbr.shape[0], SLOT_WIDTH))
+                out = np.empty((nbr.shape[0], SLOT))
                 proll = np.empty((nbr.shape[0] if ROLLING else 0, 2, 3))
                 broke = np.empty(nbr.shape[0] if FRACTURE else 0, dtype=np.int8)
                 peak = np.empty(nbr.shape[0] if FRACTURE else 0)

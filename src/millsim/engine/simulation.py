@@ -14,12 +14,14 @@ import numpy as np
 
 from . import contact as law
 from .kinematics import BODY_COLUMNS, BODY_KINDS, WALL_COLUMNS, WALL_KINDS
-from .loop import ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED
+from .loop import AUDIT_TERMS, ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED, N_AUDIT
+from .lubrication import check_lubrication_params, lubrication_dt_limit
+from .materials import check_range
 from .neighbours import build_verlet, wrap_periodic
 from .spec import PhysicsSpec, chunk_runner
 from .state import (allocate, concatenate, disk_or_sphere_mass, empty_contacts, moment_of_inertia,
                     select)
-from .timestep import time_step_report
+from .timestep import TimeStepReport, time_step_report
 
 
 # Below this many particles one thread is faster than opening parallel regions every step; results
@@ -68,6 +70,12 @@ class Simulation:
         fracture_c: Weibull constant c [m^3 N^-4] of seed 000 (spec.fracture == "weibull").
         twin_repulsion: constant force [N] pushing twin fragments apart until they separate.
         seed: seed of the counter-based random numbers drawn inside the step loop.
+        breakage: Tavares model (spec.fracture == "tavares"): {material: (gamma, e_min)} with the
+            damage coefficient of eqs 5-6 and the smallest specific energy [J/kg] an event must
+            reach to damage; materials not named never break. Each particle's fracture energy
+            [J/kg] is ``particles.e_frac`` (set by the caller, inf = unbreakable).
+        fluid: lubrication (spec.lubrication): {eta [Pa s], h_min, h_max} with the inner and outer
+            gap cutoffs as fractions of the smaller diameter of a pair (defaults 0.001 and 0.05).
         smallest_radius: the smallest free particle that can ever exist [m] (fragments down to a
             sieve size): the time-step bounds hold for it from the start, so dt never has to change.
     """
@@ -75,7 +83,8 @@ class Simulation:
     def __init__(self, spec: PhysicsSpec, table, x, radius, material, v=None, w=None, body=None,
                  walls=(), bodies=(), gravity=(0.0, 0.0, -9.81), box_lo=None, box_len=None,
                  skin=None, dt=None, impact_speed=1.0, max_overlap=0.3, v_max=None, thickness=1.0,
-                 fracture_c=0.0, twin_repulsion=0.0, seed=0, smallest_radius=None):
+                 fracture_c=0.0, twin_repulsion=0.0, seed=0, smallest_radius=None, breakage=None,
+                 fluid=None):
         if table.contact_law != spec.contact_law:
             raise ValueError(f"contact_law: table uses {table.contact_law!r}, spec {spec.contact_law!r}")
         self.spec = spec
@@ -99,8 +108,16 @@ class Simulation:
         self.v_max = float(v_max) if v_max is not None else max(100.0, 10.0 * self.impact_speed)
         self.state_columns = (3 if law.LAW_HAS_SPRING[spec.contact_law] else 0) + (
             3 if spec.fracture else 0)
+        self.wall_columns = 3 + (2 if spec.fracture == "tavares" else 0)
         self.fracture_params = np.array([fracture_c, seed, twin_repulsion], dtype=float)
-        self.fractures = np.zeros((64, 4))  # [particle, partner, peak force, step]; grows
+        self.breakage = self._breakage_table(breakage)
+        self.fluid = self._fluid(fluid)
+        # lubrication reaches h_max beyond contact: the neighbour list must hold those pairs
+        self.reach = self.fluid[2] * 2.0 * float(np.max(radius)) if spec.lubrication else 0.0
+        self.dissipation = np.zeros(N_AUDIT)
+        # Weibull rows [particle, partner, peak force, step]; Tavares rows [particle, specific
+        # energy, step, force direction (3)]. Grows inside the loop as needed.
+        self.fractures = np.zeros((64, 6 if spec.fracture == "tavares" else 4))
         self.n_fractures = np.zeros(1, dtype=np.int64)
         self.particles = self._make_particles(x, radius, material, v, w, body)
         mean_d = 2.0 * float(np.mean(radius))
@@ -114,7 +131,7 @@ class Simulation:
         self.body_work = np.zeros(nb)
         self.wall_impulse = np.zeros((nw, 6))
         self.wall_work = np.zeros(nw)
-        self.wall_hist = np.zeros((n, nw, 3))
+        self.wall_hist = np.zeros((n, nw, self.wall_columns))
         self._refresh_members()
         self._rebuild_contacts(empty_contacts(n, self.state_columns))
         self.dt_report = self._time_step_report()
@@ -192,6 +209,35 @@ class Simulation:
             raise ValueError("bodies: given but spec.bodies is false")
         return table
 
+    def _fluid(self, fluid):
+        """[eta, h_min/d, h_max/d], validated (zeros when the scene is dry)."""
+        if not self.spec.lubrication:
+            if fluid:
+                raise ValueError("fluid: given but spec.lubrication is false")
+            return np.zeros(3)
+        fluid = dict(fluid or {})
+        unknown = set(fluid) - {"eta", "h_min", "h_max"}
+        if unknown:
+            raise ValueError(f"fluid: unknown keys {sorted(unknown)} (eta, h_min, h_max)")
+        eta, h_min, h_max = fluid.get("eta", 0.0), fluid.get("h_min", 0.001), fluid.get("h_max", 0.05)
+        check_lubrication_params(eta, h_min, h_max)
+        return np.array([eta, h_min, h_max], dtype=float)
+
+    def _breakage_table(self, breakage):
+        """Per material: [stiffness Y/(1 - nu^2) (eq 4), damage gamma, e_min]."""
+        table = np.zeros((len(self.table.materials), 3))
+        if self.spec.fracture != "tavares":
+            if breakage:
+                raise ValueError("breakage: given but spec.fracture is not 'tavares'")
+            return table
+        for k, m in enumerate(self.table.materials):
+            table[k, 0] = m.youngs_modulus / (1.0 - m.poisson_ratio**2)
+        for name, (gamma, e_min) in (breakage or {}).items():
+            k = self._material_index([name])[0]
+            table[k, 1] = check_range(f"breakage[{name}].gamma", gamma, 0.0, lo_open=True)
+            table[k, 2] = check_range(f"breakage[{name}].e_min", e_min, 0.0)
+        return table
+
     def _refresh_members(self):
         self.body_members = np.flatnonzero(self.particles.body >= 0).astype(np.int64)
 
@@ -199,7 +245,8 @@ class Simulation:
         p = self.particles
         if self.spec.periodic:
             wrap_periodic(p.x, p.body, self.box_lo, self.box_len)
-        self.contacts = type(old)(*build_verlet(p.x, p.radius, p.body, self.skin, self.spec.dim,
+        self.contacts = type(old)(*build_verlet(p.x, p.radius, p.body, self.skin + self.reach,
+                                                self.spec.dim,
                                                 self.box_lo, self.box_len, old.start, old.nbr,
                                                 old.state))
         p.x_ref[:] = p.x
@@ -218,8 +265,29 @@ class Simulation:
             material = np.concatenate([material, mats])
             body = np.concatenate([body, np.full(len(mats), -1)])
         boundary = [int(m) for m in self.walls[:, 9]] + [int(m) for m in p.material[p.body >= 0]]
-        return time_step_report(self.table, self.spec, radius, mass, material, body,
-                                boundary, self.impact_speed)
+        report = time_step_report(self.table, self.spec, radius, mass, material, body,
+                                  boundary, self.impact_speed)
+        if self.spec.lubrication and self.fluid[0] > 0:
+            report = TimeStepReport(report.bounds + (self._lubrication_bound(radius, mass, material,
+                                                                            body),))
+        return report
+
+    def _lubrication_bound(self, radius, mass, material, body):
+        """Explicit stability with lubrication, from the smallest free particle (lubrication.md 4)."""
+        free = body < 0
+        k = int(np.argmin(np.where(free, mass, np.inf)))
+        m_min, a_min, mat = float(mass[k]), float(radius[k]), int(material[k])
+        p = self.pair_params[mat, mat]
+        k_n, gamma_n = 0.0, 0.0
+        if self.spec.contact_law != "hertz_mindlin":  # Hertz: its own contact bounds hold
+            k_n = float(p[law.P_K_N])
+            if self.spec.contact_law == "linear_hw":
+                gamma_n = float(p[law.P_GAMMA_N])
+            else:
+                gamma_n = 2.0 * float(p[law.P_ZETA_N]) * math.sqrt(k_n / (0.5 * m_min))
+        integrator = "gear" if self.spec.integrator == "gear" else "verlet"
+        return lubrication_dt_limit(self.fluid[0], self.fluid[1] * 2.0 * a_min, a_min, m_min, k_n,
+                                    gamma_n, integrator).step_bound()
 
     # ---- running ------------------------------------------------------------------------------
     def run(self, steps, chunk=2000, observer=None, progress=False, threads=None,
@@ -267,7 +335,7 @@ class Simulation:
                      self.skin, self.spec.dim, self.max_overlap, self.v_max, self.body_load,
                      self.body_impulse, self.body_work, self.wall_impulse, self.wall_work,
                      self.counters, err, self.step, self.fracture_params, self.fractures,
-                     self.n_fractures)
+                     self.n_fractures, self.breakage, self.reach, self.fluid, self.dissipation)
         done = int(out[0])
         self.contacts = type(c)(*out[1:6])
         self.fractures = out[6]
@@ -288,10 +356,8 @@ class Simulation:
         p = self.particles
         if code == ERR_OVERLAP:
             pi, pj, overlap, slot = self.contact_pairs(with_slots=True)
-            if self.spec.fracture:  # twin fragments count only beyond their reference overlap
-                base = self.state_columns - 3
-                twin = self.contacts.state[slot, base + 1] > 0
-                overlap = np.where(twin, overlap - self.contacts.state[slot, base + 2], overlap)
+            if self.spec.fracture:  # fragments count only beyond their reference overlap
+                overlap = overlap - self._reference_overlap(slot)
             if len(pi):
                 k = int(np.argmax(overlap / np.minimum(p.radius[pi], p.radius[pj])))
                 i, j = int(pi[k]), int(pj[k])
@@ -312,31 +378,67 @@ class Simulation:
         return f"{where}: guard code {code} on particle {i}"
 
     def pop_fractures(self):
-        """Fracture decisions of the last chunk: list of (particle, partner, peak force [N], step)."""
-        rows = [(int(a), int(b), float(f), int(s)) for a, b, f, s in
-                self.fractures[: int(self.n_fractures[0])]]
-        self.n_fractures[0] = 0
-        return rows
+        """Fracture decisions of the last chunk.
 
-    def mark_twins(self, i, j):
-        """Give the pair (i, j) the twin-fragment interaction until it first separates."""
-        if not self.spec.fracture:
-            raise ValueError("mark_twins: spec.fracture is off")
+        Weibull: list of (particle, partner, peak force [N], step). Tavares: list of (particle,
+        absorbed specific energy [J/kg], step, unit direction of the largest contact force).
+        """
+        rows = self.fractures[: int(self.n_fractures[0])].copy()
+        self.n_fractures[0] = 0
+        if self.spec.fracture == "tavares":
+            out = []
+            for r in rows:
+                d = r[3:6]
+                norm = np.linalg.norm(d)
+                out.append((int(r[0]), float(r[1]), int(r[2]),
+                            d / norm if norm > 0 else np.array([0.0, 0.0, 1.0])))
+            return out
+        return [(int(a), int(b), float(f), int(s)) for a, b, f, s in rows]
+
+    def _slot(self, i, j):
         a, b = min(i, j), max(i, j)
         c = self.contacts
         row = c.nbr[c.start[a]:c.start[a + 1]]
         k = c.start[a] + int(np.searchsorted(row, b))
         if k >= c.start[a + 1] or c.nbr[k] != b:
-            return
+            return None
+        return k
+
+    def _reference_overlap(self, slots):
+        """Creation overlap of fragment pairs (0 for ordinary pairs) at the given list slots."""
         base = self.state_columns - 3
-        c.state[k, base + 1] = 1.0  # twin flag
-        d = self.particles.x[a] - self.particles.x[b]
-        c.state[k, base + 2] = self.particles.radius[a] + self.particles.radius[b] - np.linalg.norm(d)
+        state = self.contacts.state[slots]
+        if self.spec.fracture == "weibull":
+            return np.where(state[:, base + 1] > 0, state[:, base + 2], 0.0)
+        return state[:, base + 2]
+
+    def mark_twins(self, i, j):
+        """Fragments i and j were created overlapping: only overlap beyond the present one counts.
+
+        Weibull (seed 000): the pair also gets the twin relief force until it first separates.
+        Tavares (seed 002): the reference shrinks as the pair parts, and is gone once it has.
+        """
+        if not self.spec.fracture:
+            raise ValueError("mark_twins: spec.fracture is off")
+        k = self._slot(i, j)
+        if k is None:
+            return
+        c = self.contacts
+        base = self.state_columns - 3
+        d = self.particles.x[i] - self.particles.x[j]
+        overlap = self.particles.radius[i] + self.particles.radius[j] - np.linalg.norm(d)
+        if self.spec.fracture == "weibull":
+            c.state[k, base + 1] = 1.0  # twin flag
+            c.state[k, base + 2] = overlap
+        else:
+            c.state[k, base + 2] = max(overlap, 0.0)
 
     def twin_partners(self, i):
         """Particles that are still twins of particle i (fragments not yet separated)."""
         c = self.contacts
-        twin = c.state[:, self.state_columns - 2] > 0
+        base = self.state_columns - 3
+        flag = c.state[:, base + 1] if self.spec.fracture == "weibull" else c.state[:, base + 2]
+        twin = flag > 0
         mine = np.arange(c.start[i], c.start[i + 1])
         theirs = c.rev_slot[c.rev_start[i]:c.rev_start[i + 1]]
         owner = np.searchsorted(c.start, theirs, side="right") - 1
@@ -369,7 +471,8 @@ class Simulation:
         new = self._make_particles(x, radius, material, v, w, None)
         n_old = len(self.particles.radius)
         self.particles = concatenate(self.particles, new)
-        self.wall_hist = np.concatenate([self.wall_hist, np.zeros((len(radius), len(self.walls), 3))])
+        self.wall_hist = np.concatenate([self.wall_hist,
+                                         np.zeros((len(radius), len(self.walls), self.wall_columns))])
         old = self.contacts
         start = np.concatenate([old.start, np.full(len(radius), old.start[-1])])
         self._after_change(type(old)(start, old.nbr, old.state, old.rev_start, old.rev_slot))
@@ -411,6 +514,12 @@ class Simulation:
         p = self.particles
         free = self.free
         return float(-(1.0 / p.inv_mass[free] * (p.x[free] @ self.gravity)).sum())
+
+    def energy_audit(self):
+        """Energy dissipated since the start [J], by term (spec.energy_audit)."""
+        if not self.spec.energy_audit:
+            raise ValueError("energy_audit: spec.energy_audit is off")
+        return dict(zip(AUDIT_TERMS, (float(e) for e in self.dissipation)))
 
     def contact_pairs(self, with_slots=False):
         """(i, j, overlap) of the particle pairs in contact now (and their list slots)."""

@@ -6,6 +6,7 @@ from functools import lru_cache
 from .contact import LAW_IDS
 
 INTEGRATORS = ("verlet", "gear")
+FRACTURE_MODELS = ("", "weibull", "tavares")
 
 
 @dataclass(frozen=True)
@@ -23,8 +24,13 @@ class PhysicsSpec:
         gravity, walls, bodies, periodic: whether those terms exist at all.
         normal_force_sum: keep each particle's sum of contact normal forces (pressure maps,
             force chains).
-        fracture: "" (none) or "weibull" (seed 000: fracture trial per contact event at its peak
-            force, twin-fragment relief; needs the linear_hw law).
+        fracture: "" (none), "weibull" (seed 000: fracture trial per contact event at its peak
+            force, twin-fragment relief; needs the linear_hw law) or "tavares" (seed 002: loading
+            work per stressing event against a damaged fracture energy; needs hertz_mindlin).
+        lubrication: pairwise Jeffrey-Onishi lubrication between near-contacting particles and
+            between particles and walls (seed 004), on top of the contact law.
+        energy_audit: integrate the power dissipated by contact damping, by the tangential force
+            (centre slip and rotational slip) and by lubrication (normal, tangential).
     """
 
     dim: int = 3
@@ -38,6 +44,8 @@ class PhysicsSpec:
     periodic: bool = False
     normal_force_sum: bool = False
     fracture: str = ""
+    lubrication: bool = False
+    energy_audit: bool = False
 
     def __post_init__(self):
         if self.dim not in (2, 3):
@@ -46,10 +54,12 @@ class PhysicsSpec:
             raise ValueError(f"contact_law: must be one of {sorted(LAW_IDS)}, got {self.contact_law!r}")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator: must be one of {INTEGRATORS}, got {self.integrator!r}")
-        if self.fracture not in ("", "weibull"):
-            raise ValueError(f"fracture: must be '' or 'weibull', got {self.fracture!r}")
+        if self.fracture not in FRACTURE_MODELS:
+            raise ValueError(f"fracture: must be one of {FRACTURE_MODELS}, got {self.fracture!r}")
         if self.fracture == "weibull" and self.contact_law != "linear_hw":
             raise ValueError("fracture: 'weibull' (seed 000) goes with contact_law 'linear_hw'")
+        if self.fracture == "tavares" and self.contact_law != "hertz_mindlin":
+            raise ValueError("fracture: 'tavares' (seed 002) goes with contact_law 'hertz_mindlin'")
         if self.rolling_friction and self.contact_law != "hertz_mindlin":
             raise ValueError("rolling_friction: only available with contact_law 'hertz_mindlin'")
 

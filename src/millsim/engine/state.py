@@ -12,7 +12,7 @@ import numpy as np
 ParticleArrays = namedtuple(
     "ParticleArrays",
     ["x", "v", "w", "acc", "alpha", "radius", "inv_mass", "inv_inertia", "material", "body",
-     "x_ref", "x_body0", "gear", "fn_sum"],
+     "x_ref", "x_body0", "gear", "fn_sum", "e_acc", "e_frac"],
 )
 ContactList = namedtuple("ContactList", ["start", "nbr", "state", "rev_start", "rev_slot"])
 
@@ -47,6 +47,9 @@ def allocate(x, v, w, radius, inv_mass, inv_inertia, material, body, x_body0, ge
         x_ref=x.copy(), x_body0=as3(x_body0),
         gear=np.zeros((n if gear else 0, GEAR_SLOTS, 3)),
         fn_sum=np.zeros(n),
+        # Tavares breakage: energy absorbed in the current stressing event [J] and the current
+        # (damaged) specific fracture energy [J/kg]; inf = never breaks.
+        e_acc=np.zeros(n), e_frac=np.full(n, np.inf),
     )
 
 

@@ -52,6 +52,7 @@ class StepBound:
     interaction: str
     limit: float
     recommended: float
+    advice: str = ""  # the way out beyond a smaller dt, for the refusal message
 
 
 @dataclass(frozen=True)
@@ -78,7 +79,7 @@ class TimeStepReport:
         if dt > b.limit:
             raise TimeStepError(
                 f"dt: {dt:.4g} s exceeds the stability limit {b.limit:.4g} s set by {b.interaction}; "
-                f"use dt <= {b.limit:.4g} s (recommended {self.recommended:.4g} s)")
+                f"use dt <= {b.limit:.4g} s (recommended {self.recommended:.4g} s){b.advice}")
         return dt
 
 

@@ -1,0 +1,409 @@
+"""Pairwise lubrication: leading singular Jeffrey-Onishi terms, as pure per-pair functions.
+
+The liquid appears only through the near-field lubrication between close surfaces (Ness & Sun type
+model). Formulas, sources and checks: ``/work/shared/reference/lubrication.md`` sections 2-4; what
+is implemented is summarised in ``docs/lubrication.md``.
+
+Conventions (shared with :mod:`millsim.engine.contact`):
+
+- ``n`` is the unit normal pointing FROM body j (or the wall) TO body i.
+- ``h`` is the surface gap r - a_i - a_j (negative while overlapping).
+- ``vij = v_i - v_j`` (centre velocities); ``wi``, ``wj`` angular velocities.
+- beta = a_j / a_i, xi = 2 h_eff / (a_i + a_j), L = max(ln(1/xi), 0), h_eff = max(h, h_min).
+- The scalars are dimensional (eta included). Y11B and Y21B keep the Jeffrey-Onishi sign (< 0).
+
+Cutoffs: the scalars are evaluated at ``h_eff = max(h, h_min)``, also while overlapping, so
+lubrication keeps acting in parallel with the contact spring-dashpot at its saturated value. The
+outer cutoff is the caller's: call these functions only for ``h < h_max``; beyond, the force is zero
+(it jumps there, which only removes dissipation). Neighbour search reach: a_i + a_j + h_max + skin.
+
+The force functions also return the dissipated power split into a normal (squeeze, X11A) part and a
+tangential part (everything else: shear, B-coupling, rolling/pumping). Both are written as sums of
+squares, so each is >= 0 whatever the rounding, and their sum equals -(F_i.v_ij + T_i.w_i + T_j.w_j)
+to rounding (the identities Y11B + Y21B = -(a_i + a_j) Y11A, Y11C + Y12C = -(a_i + a_j) Y11B and
+Y12C + Y22C = -(a_i + a_j) Y21B hold exactly).
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .contact import FAST
+from .timestep import StepBound, TimeStepError
+
+PI = math.pi
+
+INTEGRATORS = ("verlet", "verlet_half_step", "gear")
+SAFETY = 0.5  # recommended dt = SAFETY * dt_stable (lubrication.md 4.5 step 4)
+
+
+# --------------------------------------------------------------------------------------------------
+# Scalar resistances
+# --------------------------------------------------------------------------------------------------
+
+@njit(cache=True, fastmath=FAST)
+def pair_resistances(ai, aj, h, h_min, eta):
+    """Leading singular JO84 scalars of an unequal pair at h_eff = max(h, h_min).
+
+    Returns (X11A, Y11A, Y11B, Y21B, Y11C, Y12C, Y22C): X, YA in N s/m, YB in N s, YC in N m s.
+    Y11B, Y21B < 0 (JO84 sign). Y21C = Y12C. The log is clamped at >= 0 (xi >= 1 leaves the squeeze
+    term only).
+    """
+    b = aj / ai
+    bp = 1.0 + b
+    h_eff = max(h_min, h)
+    xi = 2.0 * h_eff / (ai + aj)
+    L = -math.log(xi)
+    L = max(L, 0.0)
+    c_a = 6.0 * PI * eta * ai
+    c_b = 4.0 * PI * eta * ai * ai
+    c_c = 8.0 * PI * eta * ai * ai * ai
+    bp2 = bp * bp
+    bp3 = bp2 * bp
+    x11a = c_a * (2.0 * b * b / (bp3 * xi) + b * (1.0 + 7.0 * b + b * b) / (5.0 * bp3) * L)
+    y11a = c_a * (4.0 * b * (2.0 + b + 2.0 * b * b) / (15.0 * bp3)) * L
+    y11b = -c_b * (b * (4.0 + b) / (5.0 * bp2)) * L
+    y21b = -c_b * (b * b * (1.0 + 4.0 * b) / (5.0 * bp2)) * L
+    y11c = c_c * (2.0 * b / (5.0 * bp)) * L
+    y12c = c_c * (b * b / (10.0 * bp)) * L
+    y22c = 8.0 * PI * eta * aj * aj * aj * (2.0 / (5.0 * bp)) * L
+    return x11a, y11a, y11b, y21b, y11c, y12c, y22c
+
+
+@njit(cache=True, fastmath=FAST)
+def wall_resistances(a, h, h_min, eta):
+    """Sphere-plane limit (beta -> infinity) at h_eff = max(h, h_min), log ln(a/h_eff) clamped >= 0.
+
+    Returns (X_w, YA_w, YB_w, YC_w):
+    X_w = 6 pi eta a (a/h + ln(a/h)/5), YA_w = 6 pi eta a (8/15) ln, YB_w = -4 pi eta a^2 (1/5) ln,
+    YC_w = 8 pi eta a^3 (2/5) ln.
+    """
+    h_eff = max(h_min, h)
+    L = math.log(a / h_eff)
+    L = max(L, 0.0)
+    c_a = 6.0 * PI * eta * a
+    x_w = c_a * (a / h_eff + 0.2 * L)
+    ya_w = c_a * (8.0 / 15.0) * L
+    yb_w = -4.0 * PI * eta * a * a * 0.2 * L
+    yc_w = 8.0 * PI * eta * a * a * a * 0.4 * L
+    return x_w, ya_w, yb_w, yc_w
+
+
+# --------------------------------------------------------------------------------------------------
+# Forces, torques, dissipation
+# --------------------------------------------------------------------------------------------------
+
+@njit(cache=True, fastmath=FAST)
+def pair_force_torque(ai, aj, n0, n1, n2, h, vij0, vij1, vij2, wi0, wi1, wi2, wj0, wj1, wj2,
+                      h_min, eta):
+    """Lubrication force and torques of one pair (call only for h < h_max).
+
+    Returns (Fi0, Fi1, Fi2, Ti0, Ti1, Ti2, Tj0, Tj1, Tj2, D_n, D_t):
+    force on i (the force on j is -F_i), torque on i, torque on j (NOT -T_i), and the dissipated
+    power [W] of the normal squeeze mode D_n = X11A (n.v_ij)^2 and of all tangential/rotational modes
+    D_t; both >= 0 and D_n + D_t = -(F_i.v_ij + T_i.w_i + T_j.w_j).
+
+        F_i = -X11A (n.v_ij) n - Y11A P.v_ij - Y11B (w_i x n) - Y21B (w_j x n)
+        T_i =  Y11B (v_ij x n) - P.(Y11C w_i + Y12C w_j)
+        T_j =  Y21B (v_ij x n) - P.(Y12C w_i + Y22C w_j)
+    """
+    x11a, y11a, y11b, y21b, y11c, y12c, y22c = pair_resistances(ai, aj, h, h_min, eta)
+    vn = vij0 * n0 + vij1 * n1 + vij2 * n2
+    u0 = vij0 - vn * n0  # P.v_ij
+    u1 = vij1 - vn * n1
+    u2 = vij2 - vn * n2
+    s0 = wi1 * n2 - wi2 * n1  # w_i x n
+    s1 = wi2 * n0 - wi0 * n2
+    s2 = wi0 * n1 - wi1 * n0
+    t0 = wj1 * n2 - wj2 * n1  # w_j x n
+    t1 = wj2 * n0 - wj0 * n2
+    t2 = wj0 * n1 - wj1 * n0
+    win = wi0 * n0 + wi1 * n1 + wi2 * n2
+    wjn = wj0 * n0 + wj1 * n1 + wj2 * n2
+    p0 = y11c * (wi0 - win * n0) + y12c * (wj0 - wjn * n0)  # P.(Y11C w_i + Y12C w_j)
+    p1 = y11c * (wi1 - win * n1) + y12c * (wj1 - wjn * n1)
+    p2 = y11c * (wi2 - win * n2) + y12c * (wj2 - wjn * n2)
+    q0 = y12c * (wi0 - win * n0) + y22c * (wj0 - wjn * n0)  # P.(Y12C w_i + Y22C w_j)
+    q1 = y12c * (wi1 - win * n1) + y22c * (wj1 - wjn * n1)
+    q2 = y12c * (wi2 - win * n2) + y22c * (wj2 - wjn * n2)
+    c0 = u1 * n2 - u2 * n1  # v_ij x n = (P.v_ij) x n
+    c1 = u2 * n0 - u0 * n2
+    c2 = u0 * n1 - u1 * n0
+    f0 = -x11a * vn * n0 - y11a * u0 - y11b * s0 - y21b * t0
+    f1 = -x11a * vn * n1 - y11a * u1 - y11b * s1 - y21b * t1
+    f2 = -x11a * vn * n2 - y11a * u2 - y11b * s2 - y21b * t2
+    # Dissipation. The tangential quadratic form on (u, s, t) is [[YA, YB, YB21], [YB, YC, YC12],
+    # [YB21, YC12, YC22]] (x) I_2; it is singular along the rigid rotation (a_i + a_j, 1, 1), so
+    # D_t = Y11A |u + (Y11B s + Y21B t)/Y11A|^2 + sigma |s - t|^2, sigma = Y11C - Y11B^2/Y11A >= 0.
+    d_n = x11a * vn * vn
+    d_t = 0.0
+    if y11a > 0.0:
+        g0 = u0 + (y11b * s0 + y21b * t0) / y11a
+        g1 = u1 + (y11b * s1 + y21b * t1) / y11a
+        g2 = u2 + (y11b * s2 + y21b * t2) / y11a
+        sigma = y11c - y11b * y11b / y11a
+        sigma = max(sigma, 0.0)
+        e0, e1, e2 = s0 - t0, s1 - t1, s2 - t2
+        d_t = y11a * (g0 * g0 + g1 * g1 + g2 * g2) + sigma * (e0 * e0 + e1 * e1 + e2 * e2)
+    return (f0, f1, f2,
+            y11b * c0 - p0, y11b * c1 - p1, y11b * c2 - p2,
+            y21b * c0 - q0, y21b * c1 - q1, y21b * c2 - q2,
+            d_n, d_t)
+
+
+@njit(cache=True, fastmath=FAST)
+def wall_force_torque(a, n0, n1, n2, h, vc0, vc1, vc2, wi0, wi1, wi2, ww0, ww1, ww2, h_min, eta):
+    """Sphere-wall lubrication (call only for h < h_max); n points from the wall to the sphere.
+
+    vc = v_i - u_wall(closest point) (the surface velocity returned by ``wall_contact``); ww is the
+    wall's angular velocity (zero for fixed walls; omega * axis for a rotating cylinder). The law is
+    the fixed-wall law applied in the wall's frame, which is the beta -> infinity limit of
+    :func:`pair_force_torque` with lever a (h neglected, as in the pair law):
+
+        v* = vc - a (ww x n),   w* = w_i - ww
+        F  = -X_w (n.v*) n - YA_w P.v* - YB_w (w* x n)
+        T  =  YB_w (v* x n) - YC_w P.w*
+
+    With ww = 0 this is lubrication.md 2.5 with omega_wall = 0. For a wall rotating about its own
+    normal (a disc face) ww x n = 0 and P.ww = 0, so ww changes nothing there.
+
+    Returns (F0, F1, F2, T0, T1, T2, D_n, D_t): force and torque on the sphere; dissipation
+    D_n = X_w (n.v*)^2 and D_t = YA_w |P.v* + (YB_w/YA_w)(w* x n)|^2 + (YC_w - YB_w^2/YA_w)|w* x n|^2,
+    both >= 0, D_n + D_t = -(F.v* + T.w*). The power the wall puts in is D_n + D_t plus the work done
+    on the sphere.
+    """
+    x_w, ya, yb, yc = wall_resistances(a, h, h_min, eta)
+    v0 = vc0 - a * (ww1 * n2 - ww2 * n1)
+    v1 = vc1 - a * (ww2 * n0 - ww0 * n2)
+    v2 = vc2 - a * (ww0 * n1 - ww1 * n0)
+    w0, w1, w2 = wi0 - ww0, wi1 - ww1, wi2 - ww2
+    vn = v0 * n0 + v1 * n1 + v2 * n2
+    u0, u1, u2 = v0 - vn * n0, v1 - vn * n1, v2 - vn * n2
+    s0 = w1 * n2 - w2 * n1
+    s1 = w2 * n0 - w0 * n2
+    s2 = w0 * n1 - w1 * n0
+    wn = w0 * n0 + w1 * n1 + w2 * n2
+    c0 = u1 * n2 - u2 * n1
+    c1 = u2 * n0 - u0 * n2
+    c2 = u0 * n1 - u1 * n0
+    d_n = x_w * vn * vn
+    d_t = 0.0
+    if ya > 0.0:
+        r = yb / ya
+        g0, g1, g2 = u0 + r * s0, u1 + r * s1, u2 + r * s2
+        sigma = yc - yb * r
+        sigma = max(sigma, 0.0)
+        d_t = ya * (g0 * g0 + g1 * g1 + g2 * g2) + sigma * (s0 * s0 + s1 * s1 + s2 * s2)
+    return (-x_w * vn * n0 - ya * u0 - yb * s0,
+            -x_w * vn * n1 - ya * u1 - yb * s1,
+            -x_w * vn * n2 - ya * u2 - yb * s2,
+            yb * c0 - yc * (w0 - wn * n0),
+            yb * c1 - yc * (w1 - wn * n1),
+            yb * c2 - yc * (w2 - wn * n2),
+            d_n, d_t)
+
+
+# --------------------------------------------------------------------------------------------------
+# Parameters and time step (plain Python)
+# --------------------------------------------------------------------------------------------------
+
+def check_lubrication_params(eta, h_min, h_max, a_min=0.5):
+    """Validate the lubrication parameters; raise ValueError naming the offending one.
+
+    h_min, h_max and a_min share one length unit. With the default a_min = 0.5 the gaps are read as
+    fractions of the (smallest) bead diameter d (a = d/2); pass a_min in metres with gaps in metres.
+    The largest dimensionless gap xi_max = h_max / a_min (equal smallest beads; unequal pairs and the
+    wall have smaller xi or ln(a/h) >= 0 under the same condition) must stay below 1, or the log terms
+    would change sign. Returns (xi_min, xi_max).
+    """
+    vals = {}
+    for key, val in (("eta", eta), ("h_min", h_min), ("h_max", h_max), ("a_min", a_min)):
+        try:
+            vals[key] = float(val)
+        except (TypeError, ValueError):
+            raise ValueError(f"lubrication.{key}: must be a number, got {val!r}") from None
+        if not math.isfinite(vals[key]):
+            raise ValueError(f"lubrication.{key}: must be finite, got {val!r}")
+    eta, h_min, h_max, a_min = vals["eta"], vals["h_min"], vals["h_max"], vals["a_min"]
+    if eta < 0.0:
+        raise ValueError(f"lubrication.eta: viscosity must be >= 0 Pa s, got {eta:g}")
+    if a_min <= 0.0:
+        raise ValueError(f"lubrication.a_min: smallest radius must be > 0, got {a_min:g}")
+    if h_min <= 0.0:
+        raise ValueError(f"lubrication.h_min: inner cutoff must be > 0 (the squeeze force diverges "
+                         f"as 1/h), got {h_min:g}")
+    if h_min >= h_max:
+        raise ValueError(f"lubrication.h_min: inner cutoff {h_min:g} must be smaller than the outer "
+                         f"cutoff h_max = {h_max:g}")
+    xi_max = h_max / a_min
+    if xi_max >= 1.0:
+        raise ValueError(f"lubrication.h_max: outer cutoff {h_max:g} gives xi = h_max/a_min = "
+                         f"{xi_max:g} >= 1 for the smallest beads (a_min = {a_min:g}), where the "
+                         f"log terms change sign; use h_max < a_min (typically 0.05 d)")
+    return h_min / a_min, xi_max
+
+
+def _gear_map(W2, G):
+    """One step of the engine's 6-value Gear scheme (loop.py) on x'' = -w^2 x - g x' (dt = 1)."""
+    c0, c1, c3, c4, c5 = 3.0 / 16.0, 251.0 / 360.0, 11.0 / 18.0, 1.0 / 6.0, 1.0 / 60.0
+    m = np.empty((6, 6))
+    for k in range(6):
+        x, v, a, b, c, d = (1.0 if j == k else 0.0 for j in range(6))
+        x = x + v + a / 2 + b / 6 + c / 24 + d / 120
+        v = v + a + b / 2 + c / 6 + d / 24
+        a = a + b + c / 2 + d / 6
+        b = b + c + d / 2
+        c = c + d
+        ev = -W2 * x - G * v
+        da = ev - a
+        m[:, k] = (x + c0 * da / 2, v + c1 * da / 2, ev, b + 3 * c3 * da, c + 12 * c4 * da,
+                   d + 60 * c5 * da)
+    return m
+
+
+def _spectral_radius(m):
+    return float(np.max(np.abs(np.linalg.eigvals(m))))
+
+
+def _gear_dt(lambda_c, lambda_k):
+    """Smallest dt at which the Gear map on (lambda_k, lambda_c) goes unstable (scan + bisection)."""
+    tol = 1e-9
+
+    def stable(dt):
+        return _spectral_radius(_gear_map(lambda_k * dt * dt, lambda_c * dt)) <= 1.0 + tol
+
+    rate = lambda_c + math.sqrt(lambda_k)
+    lo = 1e-3 / rate
+    hi = lo
+    while stable(hi):
+        lo, hi = hi, hi * 1.05
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if stable(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def stability_dt(lambda_c, lambda_k, integrator="verlet"):
+    """Largest stable dt for x'' = -lambda_k x - lambda_c x' with the given integrator.
+
+    - ``verlet``: this engine's Verlet, whose velocity-dependent forces see v + dt a (loop.py):
+      lambda_k dt^2/4 + lambda_c dt <= 1 (damping alone: g dt <= 1).
+    - ``verlet_half_step``: classic velocity Verlet with the half-step velocity in the force
+      (LAMMPS/HLGD, lubrication.md 4.2): lambda_k dt^2/2 + lambda_c dt <= 2.
+    - ``gear``: this engine's 6-value Gear corrector, found numerically (damping alone:
+      g dt <= 0.1633).
+    """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator: {integrator!r} is not one of {INTEGRATORS}")
+    if lambda_c < 0.0 or lambda_k < 0.0 or lambda_c + lambda_k <= 0.0:
+        raise ValueError(f"stability_dt: need lambda_c, lambda_k >= 0, not both 0; got "
+                         f"{lambda_c:g}, {lambda_k:g}")
+    if integrator == "verlet":
+        return 2.0 / (lambda_c + math.sqrt(lambda_c * lambda_c + lambda_k))
+    if integrator == "verlet_half_step":
+        return 4.0 / (lambda_c + math.sqrt(lambda_c * lambda_c + 4.0 * lambda_k))
+    return _gear_dt(lambda_c, lambda_k)
+
+
+@dataclass(frozen=True)
+class LubricationStepLimit:
+    """Stability bound of explicit integration with lubrication (lubrication.md 4.3-4.5).
+
+    dt_stable [s]; lambda_c [1/s] = (8 X11A(h_min) + X_w(h_min))/m_min + gamma_n (worst FCC packing
+    at h_min against a wall, plus the contact dashpot); lambda_k [1/s^2] = 2 k_n/m_min;
+    X11A_hmin, X_w [N s/m] of the smallest beads at h_min.
+    """
+
+    dt_stable: float
+    lambda_c: float
+    lambda_k: float
+    X11A_hmin: float
+    X_w: float
+    eta: float
+    h_min: float
+    a_min: float
+    m_min: float
+    integrator: str
+
+    @property
+    def dt_recommended(self):
+        """SAFETY * dt_stable (with the half-step Verlet this also keeps the squeeze mode from
+        oscillating, g dt <= 1)."""
+        return SAFETY * self.dt_stable
+
+    @property
+    def dt_lubrication_only(self):
+        """The bound without the contact spring and dashpot."""
+        return stability_dt((8.0 * self.X11A_hmin + self.X_w) / self.m_min, 0.0, self.integrator)
+
+    def describe(self):
+        return (f"lubrication (eta = {self.eta:g} Pa s, h_min = {self.h_min:.4g} m, smallest bead "
+                f"a = {self.a_min:.4g} m, m_min = {self.m_min:.4g} kg: X11A(h_min) = "
+                f"{self.X11A_hmin:.4g} N s/m, X_wall(h_min) = {self.X_w:.4g} N s/m, damping rate "
+                f"lambda_c = {self.lambda_c:.4g} 1/s, contact lambda_k = {self.lambda_k:.4g} 1/s^2, "
+                f"{self.integrator} stable for dt <= {self.dt_stable:.4g} s)")
+
+    def message(self, dt):
+        """Refusal text for a requested dt above dt_stable."""
+        return (f"dt: {dt:.4g} s exceeds the stability limit {self.dt_stable:.4g} s of "
+                f"{self.describe()}; use dt <= {self.dt_recommended:.4g} s, or a larger h_min "
+                f"(dt_stable grows about linearly with h_min), or a lower viscosity; "
+                f"implicit lubrication is not implemented")
+
+    def check(self, dt):
+        """Return dt if dt <= dt_stable, else raise timestep.TimeStepError with :meth:`message`."""
+        if not dt > 0:
+            raise TimeStepError(f"dt: must be > 0, got {dt}")
+        if dt > self.dt_stable:
+            raise TimeStepError(self.message(dt))
+        return dt
+
+    def step_bound(self):
+        """The bound as a :class:`~millsim.engine.timestep.StepBound` (to add to a TimeStepReport)."""
+        return StepBound(self.describe(), self.dt_stable, self.dt_recommended,
+                         advice=", or a larger h_min (dt_stable grows about linearly with h_min), "
+                                "or a lower viscosity; implicit lubrication is not implemented")
+
+
+def lubrication_dt_limit(eta, h_min, a_min, m_min, k_n, gamma_n, integrator="verlet"):
+    """Worst-case explicit stability bound with lubrication (lubrication.md 4.3 and 4.5).
+
+    Args:
+        eta: viscosity [Pa s]; h_min: inner cutoff [m]; a_min, m_min: radius [m] and mass [kg] of
+            the smallest bead.
+        k_n: contact normal stiffness [N/m] (0: lubrication and dashpot only).
+        gamma_n: contact normal damping RATE [1/s] (force m_eff gamma_n v_n, as ``linear_hw``; for
+            a damping ratio zeta pass 2 zeta sqrt(k_n/m_eff)); 0 for none.
+        integrator: ``verlet`` (this engine, default), ``verlet_half_step`` or ``gear``; see
+            :func:`stability_dt`.
+
+    lambda_c = (8 X11A(h_min) + X_w(h_min))/m_min + gamma_n, lambda_k = 2 k_n/m_min.
+    The FCC bound 8 X11A/m is exact for a monodisperse packing with every gap at h_min; for
+    polydisperse beds (small beads between large ones, X11A -> X_w) it is not a bound.
+    """
+    for key, val, positive in (("eta", eta, False), ("h_min", h_min, True), ("a_min", a_min, True),
+                               ("m_min", m_min, True), ("k_n", k_n, False),
+                               ("gamma_n", gamma_n, False)):
+        if not (math.isfinite(val) and (val > 0.0 if positive else val >= 0.0)):
+            raise ValueError(f"lubrication_dt_limit.{key}: must be finite and "
+                             f"{'> 0' if positive else '>= 0'}, got {val!r}")
+    if h_min >= a_min:
+        raise ValueError(f"lubrication_dt_limit.h_min: {h_min:g} m must be below the smallest "
+                         f"radius a_min = {a_min:g} m")
+    x11a = float(pair_resistances(a_min, a_min, h_min, h_min, eta)[0])
+    x_w = float(wall_resistances(a_min, h_min, h_min, eta)[0])
+    lambda_c = (8.0 * x11a + x_w) / m_min + gamma_n
+    lambda_k = 2.0 * k_n / m_min
+    if lambda_c + lambda_k > 0.0:
+        dt = stability_dt(lambda_c, lambda_k, integrator)
+    else:
+        if integrator not in INTEGRATORS:
+            raise ValueError(f"integrator: {integrator!r} is not one of {INTEGRATORS}")
+        dt = math.inf
+    return LubricationStepLimit(dt, lambda_c, lambda_k, x11a, x_w, float(eta), float(h_min),
+                                float(a_min), float(m_min), integrator)
