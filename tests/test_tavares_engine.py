@@ -107,3 +107,43 @@ def test_progeny_created_overlapping_feel_only_extra_overlap():
 def test_breakage_requires_hertz_mindlin():
     with pytest.raises(ValueError, match="tavares"):
         PhysicsSpec(contact_law="linear_history", fracture="tavares")
+
+
+def test_replacement_conserves_mass_and_momentum_and_adds_no_energy():
+    """A 5.5 mm copper-ore sphere breaks on a steel plate. At the replacement: resolved mass +
+    fines = parent mass, the progeny carry the parent's momentum, and their creation overlaps
+    put no energy in (kinetic energy after the event stays below the parent's before impact)."""
+    from millsim.breakage.replacement import TavaresReplacement
+    from millsim.breakage.tavares import load_materials
+
+    mats = load_materials(truncation="single_particle")
+    ore, steel = mats["copper_ore"], mats["steel"]
+    table = MaterialTable([Material("copper_ore", ore.density, ore.young, ore.poisson),
+                           Material("steel", steel.density, steel.young, steel.poisson)],
+                          {"*": Interaction(restitution=0.39, friction=0.5)})
+    r, v0 = 2.75e-3, 8.0
+    replace = TavaresReplacement({"copper_ore": ore}, d_min=0.05 * 2 * r, seed=3)
+    sim = Simulation(SPEC, table, x=[[0, 0, 1.02 * r]], radius=[r], material="copper_ore",
+                     v=[[0, 0, -v0]], gravity=(0, 0, 0), impact_speed=v0,
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
+                     breakage={"copper_ore": (ore.gamma, 0.0)}, smallest_radius=0.05 * r)
+    sim.particles.e_frac[0] = 1.0  # J/kg: breaks early in the loading
+    m0 = replace.resolved_mass(sim)
+    ke0 = sim.kinetic_energy()
+    seen = {}
+
+    def on_fracture(s):
+        p_before = (s.masses()[:, None] * s.particles.v).sum(0)
+        replace(s)
+        seen["momentum"] = (p_before, (s.masses()[:, None] * s.particles.v).sum(0))
+        seen["n"] = s.n_particles
+
+    sim.run(3000, chunk=100, on_fracture=on_fracture)
+    assert len(replace.events) == 1 and seen["n"] > 1
+    assert replace.resolved_mass(sim) + replace.fines_mass == pytest.approx(m0, rel=1e-12)
+    before, after = seen["momentum"]
+    assert after == pytest.approx(before, rel=1e-12, abs=1e-15)
+    assert sim.kinetic_energy() < ke0
+    assert np.isfinite(sim.particles.x).all()
+    ev = replace.events[0]
+    assert ev.specific_energy >= ev.fracture_energy == 1.0
