@@ -13,7 +13,7 @@ import numba
 import numpy as np
 
 from . import contact as law
-from .kinematics import BODY_COLUMNS, BODY_KINDS, WALL_COLUMNS, WALL_KINDS
+from .kinematics import BODY_COLUMNS, BODY_KINDS, WALL_COLUMNS, WALL_KINDS, wall_contact
 from .loop import AUDIT_TERMS, ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED, N_AUDIT
 from .lubrication import check_lubrication_params, lubrication_dt_limit
 from .materials import check_range
@@ -21,7 +21,7 @@ from .neighbours import build_verlet, wrap_periodic
 from .spec import PhysicsSpec, chunk_runner
 from .state import (allocate, concatenate, disk_or_sphere_mass, empty_contacts, moment_of_inertia,
                     select)
-from .timestep import TimeStepReport, time_step_report
+from .timestep import STEPS_PER_CONTACT_LIMIT, TimeStepReport, time_step_report
 
 
 # Below this many particles one thread is faster than opening parallel regions every step; results
@@ -134,6 +134,7 @@ class Simulation:
         self.wall_hist = np.zeros((n, nw, self.wall_columns))
         self._refresh_members()
         self._rebuild_contacts(empty_contacts(n, self.state_columns))
+        self._check_initial_overlaps()
         self.dt_report = self._time_step_report()
         self.dt = self.dt_report.check(float(dt)) if dt is not None else self.dt_report.recommended
         self.wall_seconds = 0.0
@@ -209,6 +210,27 @@ class Simulation:
             raise ValueError("bodies: given but spec.bodies is false")
         return table
 
+    def _check_initial_overlaps(self):
+        """Refuse a start whose overlaps already exceed the guard: the first steps would turn them
+        into a numerical explosion, so say which pair and how to get a usable state."""
+        p = self.particles
+        i, j, overlap = self.contact_pairs()
+        worst, what = 0.0, ""
+        if len(i):
+            ratio = overlap / np.minimum(p.radius[i], p.radius[j])
+            k = int(np.argmax(ratio))
+            worst, what = float(ratio[k]), f"particles {i[k]} and {j[k]}"
+        for iw, wall in enumerate(self.walls):
+            for q in np.flatnonzero(self.free):
+                xi = wall_contact(wall, p.x[q, 0], p.x[q, 1], p.x[q, 2], p.radius[q])[0]
+                if xi / p.radius[q] > worst:
+                    worst, what = float(xi / p.radius[q]), f"particle {q} and wall {iw}"
+        if worst > self.max_overlap:
+            raise ValueError(
+                f"initial state: {what} overlap by {worst:.3g} of the smaller radius, above "
+                f"max_overlap = {self.max_overlap:g}; relax the state first (e.g. the packing "
+                f"scene, or a short run with softer contacts) or place the particles apart")
+
     def _fluid(self, fluid):
         """[eta, h_min/d, h_max/d], validated (zeros when the scene is dry)."""
         if not self.spec.lubrication:
@@ -269,7 +291,8 @@ class Simulation:
                                   boundary, self.impact_speed)
         if self.spec.lubrication and self.fluid[0] > 0:
             report = TimeStepReport(report.bounds + (self._lubrication_bound(radius, mass, material,
-                                                                            body),))
+                                                                            body),),
+                                    report.hertz_contact_time, report.impact_speed)
         return report
 
     def _lubrication_bound(self, radius, mass, material, body):
@@ -305,6 +328,7 @@ class Simulation:
         threads = saved if threads is None else int(threads)
         done = 0
         next_observation = chunk
+        self._check_contact_resolution()
         try:
             while done < steps:
                 n = min(next_observation, steps) - done
@@ -312,6 +336,7 @@ class Simulation:
                 t0 = time.perf_counter()
                 done += self._run_chunk(runner, n)
                 self.wall_seconds += time.perf_counter() - t0
+                self._check_contact_resolution()
                 if self.n_fractures[0]:
                     if on_fracture is None:
                         raise RuntimeError("fractures decided but no on_fracture handler given")
@@ -344,6 +369,25 @@ class Simulation:
         if err[0]:
             raise SimulationError(self._describe_error(err))
         return done
+
+    def _check_contact_resolution(self):
+        """Hertz contacts shorten with speed: stop, naming the speed, once a particle moves so
+        fast that its impacts would be resolved by fewer steps than the refusal limit."""
+        if self.dt_report.hertz_contact_time is None:
+            return
+        p = self.particles
+        speed = float(np.sqrt((p.v[self.free] ** 2).sum(1)).max(initial=0.0))
+        if len(self.walls):
+            speed += float(np.abs(self.walls[:, 7] * self.walls[:, 8]).max())
+        if len(self.bodies):
+            speed += float(np.sqrt((p.v[~self.free] ** 2).sum(1)).max(initial=0.0))
+        steps = self.dt_report.steps_per_contact(self.dt, speed)
+        if steps < STEPS_PER_CONTACT_LIMIT:
+            raise SimulationError(
+                f"step {self.step} (t = {self.time:.6g} s): impacts at {speed:.4g} m/s, above "
+                f"impact_speed = {self.dt_report.impact_speed:g} m/s the time step was chosen for, "
+                f"would be resolved by {steps:.1f} steps (limit {STEPS_PER_CONTACT_LIMIT}); "
+                f"declare impact_speed >= {speed:.4g} m/s (dt follows) or reduce dt")
 
     def _describe_error(self, err):
         """One line naming the step, the particle(s) and the limit that was crossed.

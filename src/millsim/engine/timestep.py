@@ -58,6 +58,15 @@ class StepBound:
 @dataclass(frozen=True)
 class TimeStepReport:
     bounds: tuple
+    # shortest Hertz contact time at the declared impact speed, and that speed (None: linear law)
+    hertz_contact_time: float = None
+    impact_speed: float = None
+
+    def steps_per_contact(self, dt, speed):
+        """Steps resolving the shortest Hertz contact at ``speed`` (t_c scales as v^-1/5)."""
+        if self.hertz_contact_time is None or speed <= self.impact_speed:
+            return math.inf
+        return self.hertz_contact_time * (self.impact_speed / speed) ** 0.2 / dt
 
     @property
     def limit(self):
@@ -101,6 +110,7 @@ def time_step_report(table, spec, radius, mass, material, body, boundary_materia
         smallest[int(mat)] = (float(radius[sel][k]), float(mass[sel][k]))
     params = table.pair_params()
     bounds = []
+    shortest = math.inf
     for a, (ra, ma) in smallest.items():
         partners = [(b, rb, mb, "particle") for b, (rb, mb) in smallest.items() if b >= a]
         partners += [(b, math.inf, math.inf, "wall/body") for b in sorted(set(boundary_materials))]
@@ -116,6 +126,7 @@ def time_step_report(table, spec, radius, mass, material, body, boundary_materia
                     f"the Rayleigh time {t_r:.4g} s of the smallest {mat.name} particle (r = {ra:.4g} m)",
                     RAYLEIGH_LIMIT * t_r, RAYLEIGH_RECOMMENDED * t_r))
                 t_c = hertz_contact_time(m_eff, r_eff, p[law.P_E_STAR], impact_speed)
+                shortest = min(shortest, t_c)
                 bounds.append(StepBound(
                     f"the Hertz contact time {t_c:.4g} s of the {names} at {impact_speed:g} m/s",
                     t_c / STEPS_PER_CONTACT_LIMIT, t_c / STEPS_PER_CONTACT_RECOMMENDED))
@@ -134,4 +145,6 @@ def time_step_report(table, spec, radius, mass, material, body, boundary_materia
                 bounds.append(StepBound(what, limit, t_c / STEPS_PER_CONTACT_RECOMMENDED))
     if not bounds:
         raise ValueError("no free particles: nothing sets a time step")
+    if spec.contact_law == "hertz_mindlin":
+        return TimeStepReport(tuple(bounds), shortest, float(impact_speed))
     return TimeStepReport(tuple(bounds))
