@@ -1,0 +1,97 @@
+"""What "leave out what a scene does not need" buys: one dry case, physics compiled out vs in.
+
+    python bench/leave_out.py [--n 10000] [--steps 5000] [--repeats 3] [--json FILE]
+
+The case is the settled bed of the throughput benchmark (packing scene: Hertz-Mindlin spheres
+r = 1 mm in a walled box, gravity). The same state is timed with three compiled loops:
+
+- ``lean``: the scene's own spec (Hertz-Mindlin, walls, gravity);
+- ``inactive``: the same plus Tavares breakage, lubrication and the energy audit compiled in but
+  doing nothing physical (every fracture energy infinite, viscosity 0: the lubrication kernel
+  runs and returns zero forces, and its h_max reach keeps more pairs in the neighbour list);
+- ``audit``: the lean spec plus the energy audit only.
+
+Each variant runs in its own process (so numba's thread pool and caches are fresh), is warmed up
+(compile excluded), and timed ``repeats`` times; the median particle-steps per second and the
+ratio to ``lean`` measured in the same run are reported. A settled state is taken from
+bench/out/millsim_box_state.csv when the throughput benchmark left one, else the packing scene
+settles a fresh bed first (slower).
+"""
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+STATE = HERE / "out" / "millsim_box_state.csv"
+
+RUN = r"""
+import json, sys
+import numpy as np
+from millsim.engine import PhysicsSpec, Simulation
+from millsim.scenes import packing
+from millsim.scenes.base import get_scene
+
+variant, n, steps, repeats, state = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+values = get_scene("packing").resolve({"n": n, "init_file": state} if state else {"n": n})
+base = packing.build(values)
+if not state:
+    base.run(values["settle_steps"], chunk=5000)
+p = base.particles
+extra = {}
+spec = base.spec
+if variant == "inactive":
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, fracture="tavares",
+                       lubrication=True, energy_audit=True)
+    extra = dict(breakage={"grain": (5.0, 0.0)}, fluid=dict(eta=0.0))
+elif variant == "audit":
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, energy_audit=True)
+walls = [dict(kind="plane", point=row[1:4], normal=row[4:7], material="grain") for row in base.walls]
+sim = Simulation(spec, base.table, x=p.x.copy(), radius=p.radius.copy(), material="grain",
+                 v=p.v.copy(), w=p.w.copy(), walls=walls, skin=base.skin, dt=values["dt"],
+                 impact_speed=1.0, **extra)
+sim.run(50, chunk=50)  # compile (or load) and warm up
+rates = []
+for _ in range(repeats):
+    t0 = sim.wall_seconds
+    sim.run(steps, chunk=steps)
+    rates.append(sim.n_particles * steps / (sim.wall_seconds - t0))
+print(json.dumps({"variant": variant, "rates": rates, "n": sim.n_particles,
+                  "neighbour_pairs": int(sim.contacts.nbr.shape[0])}))
+"""
+
+
+def measure(variant, n, steps, repeats, state):
+    out = subprocess.run([sys.executable, "-c", RUN, variant, str(n), str(steps), str(repeats),
+                          state], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=10000)
+    ap.add_argument("--steps", type=int, default=5000)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", help="write the results here")
+    args = ap.parse_args(argv)
+    state = str(STATE) if STATE.exists() and args.n == 10000 else ""
+    results = {}
+    for variant in ("lean", "inactive", "audit"):
+        r = measure(variant, args.n, args.steps, args.repeats, state)
+        r["median"] = statistics.median(r["rates"])
+        results[variant] = r
+        print(f"{variant:9s} median {r['median']:.3g} particle-steps/s "
+              f"({r['neighbour_pairs']} listed pairs)", flush=True)
+    for variant in ("inactive", "audit"):
+        results[variant]["ratio_to_lean"] = results[variant]["median"] / results["lean"]["median"]
+        print(f"{variant} / lean = {results[variant]['ratio_to_lean']:.3f}")
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()
