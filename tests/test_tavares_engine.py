@@ -87,14 +87,14 @@ def test_unbreakable_particles_never_break_nor_change():
 
 
 def test_progeny_created_overlapping_feel_only_extra_overlap():
-    """Two fragments placed 40 % into each other at rest: no force while they stay put, and pushed
-    together by 1 % of the radius more they repel like a fresh contact of that overlap."""
+    """Two fragments placed 80 % of a radius into each other at rest: no force while they stay
+    put, and pushed together by 1 % of the radius more they repel."""
     table = MaterialTable([ORE], {"*": Interaction(restitution=0.5, friction=0.5)})
     r = 1e-3
     x = [[0, 0, 0], [1.2 * r, 0, 0]]
     sim = Simulation(SPEC, table, x=x, radius=[r, r], material="ore", gravity=(0, 0, 0),
-                     breakage={"ore": (5.0, 0.0)}, walls=[])
-    sim.mark_twins(0, 1)
+                     breakage={"ore": (5.0, 0.0)}, walls=[], max_overlap=0.9)
+    sim.mark_creation_overlaps([1])
     sim.run(100, chunk=100)
     assert np.abs(sim.particles.v).max() == 0.0
     # now squeeze: 1 % of r beyond the creation overlap
@@ -147,3 +147,17 @@ def test_replacement_conserves_mass_and_momentum_and_adds_no_energy():
     assert np.isfinite(sim.particles.x).all()
     ev = replace.events[0]
     assert ev.specific_energy >= ev.fracture_energy == 1.0
+
+
+def test_progeny_reaching_into_a_wall_feel_only_extra_overlap():
+    table = MaterialTable([ORE, STEEL], {"*": Interaction(restitution=0.5, friction=0.5)})
+    r = 1e-3
+    sim = Simulation(SPEC, table, x=[[0, 0, 0.5 * r]], radius=[r], material="ore",
+                     gravity=(0, 0, 0), breakage={"ore": (5.0, 0.0)}, max_overlap=0.9,
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")])
+    sim.mark_creation_overlaps([0])
+    sim.run(100, chunk=100)
+    assert np.abs(sim.particles.v).max() == 0.0
+    sim.particles.x[0, 2] -= 0.01 * r
+    sim.run(1, chunk=1)
+    assert sim.particles.v[0, 2] > 0

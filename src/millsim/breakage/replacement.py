@@ -8,8 +8,9 @@ its damaged fracture energy) and stops the chunk there; :class:`TavaresReplaceme
   uniforms, so a run is reproducible whatever happens elsewhere;
 - replaces the parent by its progeny, placed inside it, moving with the parent's rigid motion
   (linear and angular momentum of the parent are kept);
-- registers every pair of progeny created overlapping, so that only overlap beyond the creation
-  state produces force (``Simulation.mark_twins``);
+- registers every contact the progeny are created with (each other, the parent's neighbours, the
+  walls), so that only overlap beyond the creation state produces force
+  (``Simulation.mark_creation_overlaps``);
 - gives breakable progeny a fresh fracture energy for their size (eqs 1-3) and unbreakable ones
   (resolved-unbreakable, dummy class, unbreakable materials) an infinite one;
 - keeps the books: unresolved fines mass, one record per breakage event.
@@ -91,7 +92,7 @@ class TavaresReplacement:
         p = sim.particles
         names = [m.name for m in sim.table.materials]
         broken = np.zeros(sim.n_particles, dtype=bool)
-        new_x, new_r, new_mat, new_v, new_w, new_breakable, groups = [], [], [], [], [], [], []
+        new_x, new_r, new_mat, new_v, new_w, new_breakable = [], [], [], [], [], []
         for i, specific, _step, direction in rows:
             name = names[p.material[i]]
             mat = self.materials[name]
@@ -110,7 +111,6 @@ class TavaresReplacement:
             new_r.append(progeny.radii)
             new_mat += [name] * k
             new_breakable.append(progeny.breakable)
-            groups.append(k)
             self.fines_mass += progeny.fines_mass
             self.events.append(BreakageEvent(
                 sim.time, p.x[i].copy(), d, name, specific, float(p.e_frac[i]), progeny.t10,
@@ -121,14 +121,8 @@ class TavaresReplacement:
         sim.remove_particles(np.concatenate([broken, np.zeros(sim.n_particles - len(broken), bool)]))
         first -= int(broken.sum())
         breakable = np.concatenate(new_breakable)
-        start = first
-        for k in groups:
-            members = np.arange(start, start + k)
-            for a in range(k):
-                for b in range(a + 1, k):
-                    sim.mark_twins(int(members[a]), int(members[b]))
-            start += k
         new = np.arange(first, first + len(breakable))
+        sim.mark_creation_overlaps(new)
         self.assign_fracture_energies(sim, new[breakable])
         sim.particles.e_frac[new[~breakable]] = np.inf
 

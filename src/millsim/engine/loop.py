@@ -172,7 +172,7 @@ def build_chunk_runner(spec):
     C_XIP = C_FMAX + 2
     C_PREV, C_FPREV, C_REF = C_FMAX, C_FMAX + 1, C_FMAX + 2
     # Same for wall contacts (wall_hist columns after the tangential spring).
-    W_PREV, W_FPREV = 3, 4
+    W_PREV, W_FPREV, W_REF = 3, 4, 5
     LUB = spec.lubrication
     AUDIT = spec.energy_audit
     # Slot record after the 8 base columns: Tavares loading work given to i and to j; lubrication
@@ -521,7 +521,17 @@ def build_chunk_runner(spec):
                                 for c in range(wall_hist.shape[2]):
                                     wall_hist[i, iw, c] = 0.0
                                 continue
-                            if xi > max_overlap * ri and err[0] == 0:
+                            # Progeny created reaching into a wall: only overlap beyond the
+                            # creation state counts (the reference shrinks as they part).
+                            xw = xi
+                            if TAVARES and wall_hist[i, iw, W_REF] > 0.0:
+                                xw = xi - wall_hist[i, iw, W_REF]
+                                wall_hist[i, iw, W_REF] = min(wall_hist[i, iw, W_REF], xi)
+                                if xw <= 0.0:
+                                    for c in range(W_REF):
+                                        wall_hist[i, iw, c] = 0.0
+                                    continue
+                            if xw > max_overlap * ri and err[0] == 0:
                                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
                             ai = ri - 0.5 * xi
                             vr0 = v[i, 0] - u0 - ai * (w[i, 1] * n2 - w[i, 2] * n1)
@@ -531,15 +541,15 @@ def build_chunk_runner(spec):
                             p = pair_params[material[i], int(walls[iw, 9])]
                             hist = wall_hist[i]
                             if LINEAR_HW:
-                                fn, f0, f1, f2 = law.linear_hw(p, xi, n0, n1, n2, vr0, vr1, vr2,
+                                fn, f0, f1, f2 = law.linear_hw(p, xw, n0, n1, n2, vr0, vr1, vr2,
                                                                m_eff, CLIP)
-                                fn_el = p[law.P_K_N] * xi
+                                fn_el = p[law.P_K_N] * xw
                             elif LINEAR_HISTORY:
-                                fn, f0, f1, f2 = law.linear_history(p, xi, n0, n1, n2, vr0, vr1,
+                                fn, f0, f1, f2 = law.linear_history(p, xw, n0, n1, n2, vr0, vr1,
                                                                     vr2, m_eff, CLIP, hist, iw, dt)
-                                fn_el = p[law.P_K_N] * xi
+                                fn_el = p[law.P_K_N] * xw
                             else:
-                                fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xi, n0, n1, n2, vr0,
+                                fn, f0, f1, f2, fn_el = law.hertz_mindlin(p, xw, n0, n1, n2, vr0,
                                                                           vr1, vr2, m_eff, ri, CLIP,
                                                                           hist, iw, dt)
                             g0 = fn * n0 + f0
@@ -554,12 +564,12 @@ def build_chunk_runner(spec):
                                 audit_part[blk, 2] -= (f0 * (vr0 - dv0) + f1 * (vr1 - dv1)
                                                        + f2 * (vr2 - dv2))
                             if TAVARES:
-                                dxi = xi - hist[iw, W_PREV]
+                                dxi = xw - hist[iw, W_PREV]
                                 if dxi > 0.0:
                                     kp = breakage[material[i], 0]
                                     kw = breakage[int(walls[iw, 9]), 0]
                                     EA += 0.5 * (fn + hist[iw, W_FPREV]) * dxi * kw / (kp + kw)
-                                hist[iw, W_PREV] = xi
+                                hist[iw, W_PREV] = xw
                                 hist[iw, W_FPREV] = fn
                                 if fn > FBIG:
                                     FBIG, D0, D1, D2 = fn, g0, g1, g2

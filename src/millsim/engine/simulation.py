@@ -108,7 +108,8 @@ class Simulation:
         self.v_max = float(v_max) if v_max is not None else max(100.0, 10.0 * self.impact_speed)
         self.state_columns = (3 if law.LAW_HAS_SPRING[spec.contact_law] else 0) + (
             3 if spec.fracture else 0)
-        self.wall_columns = 3 + (2 if spec.fracture == "tavares" else 0)
+        # tangential spring; Tavares: overlap and force one step ago, creation reference overlap
+        self.wall_columns = 3 + (3 if spec.fracture == "tavares" else 0)
         self.fracture_params = np.array([fracture_c, seed, twin_repulsion], dtype=float)
         self.breakage = self._breakage_table(breakage)
         self.fluid = self._fluid(fluid)
@@ -455,6 +456,31 @@ class Simulation:
         if self.spec.fracture == "weibull":
             return np.where(state[:, base + 1] > 0, state[:, base + 2], 0.0)
         return state[:, base + 2]
+
+    def mark_creation_overlaps(self, indices):
+        """Particles just created (Tavares progeny) may reach into their neighbours and walls: in
+        every contact they have now, only overlap beyond the present one will count (seed 002
+        section 2.3), the reference shrinking as the pair parts."""
+        if self.spec.fracture != "tavares":
+            raise ValueError("mark_creation_overlaps: spec.fracture is not 'tavares'")
+        c, p = self.contacts, self.particles
+        indices = np.atleast_1d(indices)
+        slots = np.concatenate([np.arange(c.start[i], c.start[i + 1]) for i in indices] +
+                               [c.rev_slot[c.rev_start[i]:c.rev_start[i + 1]] for i in indices])
+        if len(slots):
+            owner = np.searchsorted(c.start, slots, side="right") - 1
+            d = p.x[owner] - p.x[c.nbr[slots]]
+            for a in range(3):
+                if self.box_len[a] > 0:
+                    d[:, a] -= self.box_len[a] * np.floor(d[:, a] / self.box_len[a] + 0.5)
+            overlap = p.radius[owner] + p.radius[c.nbr[slots]] - np.linalg.norm(d, axis=1)
+            col = self.state_columns - 1
+            c.state[slots, col] = np.maximum(c.state[slots, col], np.maximum(overlap, 0.0))
+        for iw, wall in enumerate(self.walls):
+            for i in indices:
+                xi = wall_contact(wall, p.x[i, 0], p.x[i, 1], p.x[i, 2], p.radius[i])[0]
+                if xi > 0:
+                    self.wall_hist[i, iw, 5] = xi
 
     def mark_twins(self, i, j):
         """Fragments i and j were created overlapping: only overlap beyond the present one counts.
