@@ -14,6 +14,20 @@ report: "workflow/report/workflow.rst"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/ballmill.smk"
+# The other scenes' rules exist only when the config has their block.
+if "stirred_mill" in config:
+
+    include: "workflow/rules/stirred_mill.smk"
+
+
+if "bed_impact" in config:
+
+    include: "workflow/rules/bed_impact.smk"
+
+
+if "single_particle" in config:
+
+    include: "workflow/rules/single_particle.smk"
 
 
 localrules:

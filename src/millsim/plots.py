@@ -163,6 +163,12 @@ def ballmill_force_chains(ds: xr.Dataset, out: str) -> None:
     ax_force.set(xlabel=_label(ds["chain_position"], "relative position along the chain"),
                  ylabel=_label(ds["chain_force_profile"], "mean force"),
                  title="Force along a chain")
+    # the last length class also holds every longer chain
+    lengths = ds["chain_length"].values
+    ticks = lengths[:: max(1, len(lengths) // 6)]
+    ticks = np.append(ticks[ticks < lengths[-1]], lengths[-1])
+    for ax in (ax_count, ax_pressure):
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks[:-1]] + [f"\u2265{lengths[-1]:g}"])
     for ax in panels:
         ax.legend(fontsize="small")
     fig.suptitle("Force chains (run without fragmentation)")
@@ -222,6 +228,10 @@ def plot(kind: str, source: str | os.PathLike[str], out: str | os.PathLike[str])
     if kind == "animation":
         animation(source, os.fspath(out))
         return
+    if kind.startswith("bed_"):  # bed_impact figures (seed 002 Figs 20-23)
+        from .analysis.bed_impact import BED_PLOTS
+
+        PLOTS.update(BED_PLOTS)
     if kind not in PLOTS:
         known = ", ".join([*PLOTS, "animation"])
         raise ValueError(f"kind: unknown plot {kind!r}; known: {known}")

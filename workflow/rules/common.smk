@@ -139,6 +139,10 @@ def plot_source(wildcards):
     return f"results/aggregate/{BALLMILL_PLOTS[wildcards.kind]}.nc"
 
 
+# Each further scene's rules file appends the function listing what `rule all` asks of it.
+SCENE_TARGETS = []
+
+
 def all_targets():
     return [
         "results/aggregate/ballmill.nc",
@@ -148,4 +152,5 @@ def all_targets():
             f"results/plots/ballmill_animation/{case}.gif"
             for case in STUDIES["ballmill_animation"].space.instance_patterns
         ),
+        *(target for targets in SCENE_TARGETS for target in targets()),
     ]

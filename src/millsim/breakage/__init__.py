@@ -1,1 +1,1 @@
-"""Breakage models: Weibull disk fracture (seed 000); Tavares (seed 002) to come."""
+"""Breakage models: Weibull disk fracture (seed 000) and the Tavares model with particle replacement (seed 002)."""

@@ -34,6 +34,8 @@ import numpy as np
 from numba import njit
 from scipy import optimize, special
 
+from .damage import damage_fraction
+
 # ---- constants ------------------------------------------------------------------------------
 N_VALUES = (1.2, 1.5, 2.0, 4.0, 25.0, 50.0, 75.0)
 """The seven n of eq 10 (t_n = % passing d/n); n = 10 is t10 itself."""
@@ -362,54 +364,7 @@ def energy_share(k_p, k_m):
     return k_m / (k_p + k_m)
 
 
-# ---- eqs 5-6: damage ------------------------------------------------------------------------
-@njit(cache=True)
-def _damage_rhs(D, r, gamma):
-    c = 2.0 * gamma
-    return (c / (c - 5.0 * D + 5.0) * r) ** (c / 5.0)
-
-
-@njit(cache=True)
-def damage_fraction(r, gamma):
-    """Damage D of eq 6 for energy ratio r = Ek'/(m_p E) of an unbroken event.
-
-    D = [2g/(2g - 5D + 5) r]^(2g/5) is implicit. Its right side f(D) is increasing and convex,
-    so g(D) = D - f(D) has exactly one root in (0, 1) for 0 < r < 1, and D -> 1 as r -> 1 (the
-    fracture energy vanishes exactly at the breakage threshold). Fixed-point iteration from D = 0
-    (as the paper does) converges monotonically from below but slowly near r = 1, so after 50
-    steps the root is finished by safeguarded Newton/bisection on [D, 1].
-    """
-    if not (r > 0.0):  # also NaN
-        return 0.0
-    if r >= 1.0:
-        return 1.0
-    D = 0.0
-    for _ in range(50):
-        Dn = _damage_rhs(D, r, gamma)
-        if abs(Dn - D) <= 1e-15:
-            return Dn
-        D = Dn
-    lo, hi = D, 1.0  # g(lo) < 0 < g(hi)
-    c = 2.0 * gamma
-    p = c / 5.0
-    for _ in range(200):
-        f = _damage_rhs(D, r, gamma)
-        g = D - f
-        if g < 0.0:
-            lo = D
-        else:
-            hi = D
-        if hi - lo <= 1e-15:
-            break
-        dg = 1.0 - f * p * 5.0 / (c - 5.0 * D + 5.0)
-        step_ok = False
-        if dg > 0.0:
-            Dn = D - g / dg
-            step_ok = lo < Dn < hi
-        D = Dn if step_ok else 0.5 * (lo + hi)
-    return 0.5 * (lo + hi) if hi - lo <= 1e-15 else D
-
-
+# ---- eqs 5-6: damage (damage_fraction lives in .damage, which the step loop imports) --------
 @njit(cache=True)
 def damaged_energy(E, r, gamma):
     """E' = E (1 - D) after an unbroken event of ratio r (eq 5)."""

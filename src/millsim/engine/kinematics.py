@@ -33,7 +33,7 @@ BODY_COLUMNS = 8
 
 @njit(inline="always", cache=True)
 def wall_contact(wall, x0, x1, x2, r):
-    """Overlap, unit normal (wall -> particle) and wall surface velocity at the contact point.
+    """Overlap, unit normal (wall -> particle) and the wall's velocity at the contact point.
 
     Returns overlap <= 0 when there is no contact.
     """
@@ -53,11 +53,14 @@ def wall_contact(wall, x0, x1, x2, r):
     if kind == CYLINDER_INNER:
         overlap = rho + r - wall[7]
         n0, n1, n2 = -u0, -u1, -u2
+        contact_radius = wall[7] + 0.5 * overlap
     else:
         overlap = wall[7] + r - rho
         n0, n1, n2 = u0, u1, u2
-    # Surface point velocity omega a x (contact - axis); the contact lies on the radius wall[7].
-    om = wall[8] * wall[7]
+        contact_radius = wall[7] - 0.5 * overlap
+    # Velocity omega a x (contact - axis) of the wall's material at the contact point (mid-overlap,
+    # where the torque's lever arm ends too, so that power = torque x omega exactly).
+    om = wall[8] * contact_radius
     w0 = om * (a1 * u2 - a2 * u1)
     w1 = om * (a2 * u0 - a0 * u2)
     w2 = om * (a0 * u1 - a1 * u0)

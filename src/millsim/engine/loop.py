@@ -23,6 +23,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..breakage.damage import damage_fraction
 from . import contact as law
 from . import lubrication as lub
 from ..breakage.weibull import fracture_probability
@@ -158,11 +159,6 @@ def build_chunk_runner(spec):
     PRESSURE = spec.normal_force_sum
     FRACTURE = spec.fracture == "weibull"
     TAVARES = spec.fracture == "tavares"
-    # The breakage model's damage law is imported only by the scenes that break that way.
-    if TAVARES:
-        from ..breakage.tavares import damage_fraction
-    else:
-        damage_fraction = None
     # Contact-event columns after the tangential spring. Weibull (seed 000): largest normal force
     # of the event, twin flag, twin reference overlap (eqs 19-20). Tavares (seed 002): overlap and
     # normal force one step ago (loading work), reference overlap of progeny created inside each
@@ -486,8 +482,20 @@ def build_chunk_runner(spec):
                                 # Sphere-wall lubrication (also during contact, at h >= h_min); the
                                 # wall spins at omega about its axis (0 for planes).
                                 om = walls[iw, 8]
+                                cp0 = x[i, 0] - walls[iw, 1]
+                                cp1 = x[i, 1] - walls[iw, 2]
+                                cp2 = x[i, 2] - walls[iw, 3]
+                                # the wall's rigid velocity at the sphere's centre
+                                uc0 = om * (walls[iw, 5] * cp2 - walls[iw, 6] * cp1)
+                                uc1 = om * (walls[iw, 6] * cp0 - walls[iw, 4] * cp2)
+                                uc2 = om * (walls[iw, 4] * cp1 - walls[iw, 5] * cp0)
+                                # wall_force_torque subtracts a (omega x n) from the slip it is
+                                # given to reach the centre: hand it the slip at the surface
                                 g0, g1, g2, c0, c1, c2, Dn, Dt = lub.wall_force_torque(
-                                    ri, n0, n1, n2, -xi, v[i, 0] - u0, v[i, 1] - u1, v[i, 2] - u2,
+                                    ri, n0, n1, n2, -xi,
+                                    v[i, 0] - uc0 + ri * om * (walls[iw, 5] * n2 - walls[iw, 6] * n1),
+                                    v[i, 1] - uc1 + ri * om * (walls[iw, 6] * n0 - walls[iw, 4] * n2),
+                                    v[i, 2] - uc2 + ri * om * (walls[iw, 4] * n1 - walls[iw, 5] * n0),
                                     w[i, 0], w[i, 1], w[i, 2], om * walls[iw, 4], om * walls[iw, 5],
                                     om * walls[iw, 6], fluid[1] * 2.0 * ri, fluid[0])
                                 F0 += g0
@@ -502,12 +510,6 @@ def build_chunk_runner(spec):
                                 # Reaction on the wall: force through the sphere's centre plus the
                                 # couple, about the wall's point p; power = F . (wall velocity
                                 # at the centre) + couple . wall spin.
-                                cp0 = x[i, 0] - walls[iw, 1]
-                                cp1 = x[i, 1] - walls[iw, 2]
-                                cp2 = x[i, 2] - walls[iw, 3]
-                                uc0 = u0 + ri * om * (walls[iw, 5] * n2 - walls[iw, 6] * n1)
-                                uc1 = u1 + ri * om * (walls[iw, 6] * n0 - walls[iw, 4] * n2)
-                                uc2 = u2 + ri * om * (walls[iw, 4] * n1 - walls[iw, 5] * n0)
                                 wp = wall_part[blk, iw]
                                 wp[0] -= g0
                                 wp[1] -= g1

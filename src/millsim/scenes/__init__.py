@@ -2,7 +2,8 @@
 
 from importlib import import_module
 
-SCENE_MODULES = ("collision", "packing", "ballmill2d")
+SCENE_MODULES = ("collision", "packing", "ballmill2d", "stirred_mill", "bed_impact",
+                 "single_particle")
 
 
 def load_all():

@@ -1,0 +1,459 @@
+"""Scene ``bed_impact``: a steel ball dropped on an unconfined bed of 5.5 mm particles (seed 002).
+
+Tavares, Rodriguez, Sousani, Padros & Ooi (2021), section 3.1-3.2 and 4.2 (Figs 20-23):
+
+- **Bed.** Hexagonal monolayers of 0-4 rings around a central particle (1, 7, 19, 37, 61
+  particles), or beds of several such layers stacked in the hollows of the layer below (ABA...,
+  hexagonal close packing), held by a cylindrical holder (the experiments' paper ribbon) that is
+  removed at the first contact of the ball with the bed. Particles are spheres of one size
+  (5.5 mm, the middle of the 4.75-6.3 mm test class) on a steel anvil (the plane z = 0).
+- **Ball.** 88 mm steel ball of 2.78 kg; its density is set so that the sphere has exactly that
+  mass (7791 kg/m3, 0.1 % below the 7800 of Table 5). It starts ``ball_gap`` above the bed with
+  the speed that brings it to v = sqrt(2 E / m) at contact (3.05 J -> 1.481 m/s; the experiments
+  used 1.0-2.5 m/s, 1.39-8.69 J).
+- **Physics.** Hertz-Mindlin with the Table 5 elastic constants and the Table 6 contact
+  parameters (restitution, static and rolling friction, EDEM standard rolling friction), gravity,
+  the Tavares model with Emax/E50 = 100 (beds), d_min = 1/20 of the top size, cs = 0, kappa = 1,
+  progeny families with dummy spheres (seed 002 section 2.2-3.2). The time step is the engine's
+  recommended step for the smallest sphere that can ever exist (d_min), so it never changes.
+
+Two stages. (1) The bed settles under gravity on the anvil, inside the holder, with breakage off
+(no damage while settling). (2) A new Simulation starts from the settled positions, velocities
+and spins (tangential contact springs restart at zero) with the ball, breakage on and the holder
+in place; the holder is removed at the first ball-bed contact by widening it to 1 km (an analytic
+wall cannot be deleted from a running Simulation; a 1 km cylinder touches nothing). The run ends
+when the ball has rebounded and left the bed for ``release_time``, or after ``max_time`` of
+contact. Rebounds of the ball onto the bed are not simulated.
+
+Outputs (SI, per case): broken mass (mass passing 4.75 mm: resolved progeny below 4.75 mm, dummy
+spheres and unresolved fines), capture radius (largest radial distance from the ball's axis of an
+original bed particle that broke), the product size distribution on a sqrt(2) sieve series (dummy
+spheres and fines spread below their size by eq 11), time series of the ball and the particle
+count, an energy book and every breakage event.
+"""
+
+import math
+import time
+
+import numpy as np
+import xarray as xr
+
+from ..analysis import bed_impact as _analysis  # noqa: F401 (registers the aggregate summary)
+from ..breakage import tavares
+from ..breakage.replacement import TavaresReplacement
+from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from .base import Param, RunInfo, Scene, register
+
+G = 9.81
+MATERIALS = ("copper_ore", "limestone", "granulite")
+BROKEN_SIEVE = 4.75e-3  # m: "mass of material passing the initial narrow size" (4.75-6.3 mm)
+# sqrt(2) test-sieve series [m], 6.3 mm down to 38 um (seed Fig. 23 reaches 0.1 mm)
+SIEVES = np.array([6.3, 4.75, 3.35, 2.36, 1.7, 1.18, 0.85, 0.6, 0.425, 0.3, 0.212, 0.15, 0.106,
+                   0.075, 0.053, 0.038]) * 1e-3
+HOLDER_OFF_RADIUS = 1e3  # m: the removed holder
+X_MIN = tavares.SIEVE_RATIO ** -tavares.STANDARD_CLASSES  # dummy size / parent size
+
+# One compiled variant for the whole scene (and its tests).
+SPEC = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, gravity=True,
+                   fracture="tavares", rolling_friction=True)
+
+PARAMS = (
+    Param("material", "copper_ore", "bed material (config/materials.yaml, seed 002 Tables 4-5)",
+          choices=MATERIALS),
+    Param("rings", 3, "rings of particles around the central one in each layer", "1", 0, 10),
+    Param("layers", 1, "layers of particles (1 = monolayer; more are held by the holder)", "1", 1, 10),
+    Param("particle_diameter", 5.5e-3, "bed particle diameter", "m", 0.0, lo_open=True),
+    Param("spacing", 1.02, "centre distance of neighbours in a layer / particle diameter", "1", 1.0, 3.0),
+    Param("impact_energy", 3.05, "kinetic energy of the ball at first contact, m v^2/2", "J", 0.0, 100.0,
+          lo_open=True),
+    Param("ball_diameter", 0.088, "steel ball diameter", "m", 0.0, lo_open=True),
+    Param("ball_mass", 2.78, "steel ball mass (sets the ball's density)", "kg", 0.0, lo_open=True),
+    Param("ball_gap", 2e-4, "initial gap between ball and bed top", "m", 0.0, lo_open=True),
+    Param("particle_steel_rolling_friction", 0.01,
+          "rolling friction particle-steel (Table 6: 0.01; the seed's sensitivity run: 0.33)", "1", 0.0),
+    Param("dummy_as", "spheres", "dummy class of the families: spheres (seed 002) or unresolved fines",
+          choices=("spheres", "fines")),
+    Param("d_min_ratio", 0.05, "global minimum progeny size / particle diameter (seed: 1/20)", "1",
+          0.0, 0.21, lo_open=True),
+    Param("holder_gap", 0.02, "clearance between holder and outer particles / particle diameter", "1", 0.0),
+    Param("settle_time", 0.004, "settling time of the bed before the drop (breakage off)", "s", 0.0),
+    Param("release_time", 2e-4, "end: time the rebounding ball has been clear of the bed", "s", 0.0,
+          lo_open=True),
+    Param("max_time", 0.02, "end at the latest this long after first contact", "s", 0.0, lo_open=True),
+    Param("record_interval", 2e-5, "time-series cadence", "s", 0.0, lo_open=True),
+    Param("dt", 0.0, "time step; 0 = the engine's recommended step for the smallest fragment", "s", 0.0),
+    Param("max_overlap", 1.5, "guard: overlap / smaller radius that stops the run (small unbreakable "
+          "fragments nipped by the ball reach ~0.6-1)", "1", 0.0, 5.0, lo_open=True),
+    Param("v_max", 1000.0, "guard: particle speed that stops the run (small fragments released from "
+          "heavy compression are fast)", "m s-1", 0.0, lo_open=True),
+    Param("materials_file", "config/materials.yaml", "Tavares materials and Table 6 contact parameters"),
+    Param("seed", 1, "seed of fracture energies, families and arrangements (replicates)", "1", 0),
+)
+
+
+def _check(values):
+    if values["layers"] > 1 and values["rings"] < 1:
+        raise ValueError("rings: a bed of several layers needs at least 1 ring")
+
+
+# ---- geometry ---------------------------------------------------------------------------------
+def hex_layer(rings, spacing):
+    """Centres (n, 2) of a hexagonal monolayer: a central site and ``rings`` rings around it.
+
+    n = 1 + 3 k (k + 1): 1, 7, 19, 37, 61 for k = 0..4; nearest neighbours ``spacing`` apart.
+    """
+    pts = [(q, r) for q in range(-rings, rings + 1) for r in range(-rings, rings + 1)
+           if max(abs(q), abs(r), abs(q + r)) <= rings]
+    pts.sort(key=lambda qr: (max(abs(qr[0]), abs(qr[1]), abs(qr[0] + qr[1])), qr))
+    q, r = np.array(pts, dtype=float).T
+    return np.column_stack([spacing * (q + 0.5 * r), spacing * r * math.sqrt(3.0) / 2.0])
+
+
+def _inside_hexagon(xy, rings, spacing, tol=1e-9):
+    """Points inside the hexagon spanned by the outer ring's corner sites."""
+    R = rings * spacing
+    corners = [(R * math.cos(a), R * math.sin(a)) for a in np.arange(6) * math.pi / 3]
+    inside = np.ones(len(xy), dtype=bool)
+    for k in range(6):
+        (x0, y0), (x1, y1) = corners[k], corners[(k + 1) % 6]
+        cross = (x1 - x0) * (xy[:, 1] - y0) - (y1 - y0) * (xy[:, 0] - x0)
+        inside &= cross >= -tol * R
+    return inside
+
+
+def bed_positions(rings, layers, diameter, spacing):
+    """Centres (n, 3) of the bed: layer A = the hexagonal monolayer on the anvil; layers B (odd)
+    sit in the hollows of A inside the same hexagon (ABA... stacking), each a small gap above the
+    height at which it would touch the layer below (it settles)."""
+    s = spacing * diameter
+    a = hex_layer(rings, s)
+    shift = np.array([0.5 * s, 0.5 * s / math.sqrt(3.0)])
+    big = hex_layer(rings + 1, s) + shift
+    b = big[_inside_hexagon(big, rings, s)]
+    dz = math.sqrt(max(diameter**2 - s**2 / 3.0, 0.0)) + 0.01 * diameter
+    out = []
+    for k in range(layers):
+        xy = a if k % 2 == 0 else b
+        out.append(np.column_stack([xy, np.full(len(xy), 0.5 * diameter + k * dz)]))
+    return np.concatenate(out)
+
+
+def ball_speed(energy, mass):
+    """v = sqrt(2 E / m) [m/s]."""
+    return math.sqrt(2.0 * energy / mass)
+
+
+def ball_density(mass, diameter):
+    return mass / (math.pi / 6.0 * diameter**3)
+
+
+def sphere_mass(density, d):
+    return density * math.pi / 6.0 * np.asarray(d, dtype=float) ** 3
+
+
+# ---- materials ----------------------------------------------------------------------------------
+def material_table(values, tav):
+    contacts = tavares.load_contacts(values["materials_file"])
+    name, ore, steel = values["material"], tav[values["material"]], tav["steel"]
+
+    def inter(key, **override):
+        c = {**contacts[key], **override}
+        return Interaction(restitution=c["restitution"], friction=c["static_friction"],
+                           rolling_friction=c["rolling_friction"])
+
+    mats = [Material(name, ore.density, ore.young, ore.poisson),
+            Material("steel", ball_density(values["ball_mass"], values["ball_diameter"]),
+                     steel.young, steel.poisson)]
+    return MaterialTable(mats, {
+        "*": inter("particle_particle"),
+        (name, "steel"): inter("particle_steel",
+                               rolling_friction=values["particle_steel_rolling_friction"]),
+        ("steel", "steel"): inter("steel_steel"),
+    }, "hertz_mindlin")
+
+
+# ---- bookkeeping of progeny ---------------------------------------------------------------------
+class _Tracker:
+    """Wraps the replacement handler; keeps per-particle tags in step with adds and removals:
+    the original bed particle each one comes from, its generation, and whether it is a dummy
+    sphere (and the t10' of the event that made it, for eq 11)."""
+
+    def __init__(self, replace, mat, n, values):
+        self.replace, self.mat, self.values = replace, mat, values
+        self.origin = np.arange(n) - 1  # particle 0 is the ball (-1)
+        self.generation = np.zeros(n, dtype=int)
+        self.dummy = np.zeros(n, dtype=bool)
+        self.dummy_t10 = np.zeros(n)
+        self.event_rows = []  # per event: time, x, y, z, radial, generation, origin, ...
+
+    def __call__(self, sim):
+        n_fr = int(sim.n_fractures[0])
+        parents = sim.fractures[:n_fr, 0].astype(int).copy()
+        before = len(self.replace.events)
+        ball_xy = sim.particles.x[0, :2].copy()
+        self.replace(sim)
+        new_events = self.replace.events[before:]
+        broken = np.zeros(len(self.origin), dtype=bool)
+        broken[parents] = True
+        origin, gen, dummy, t10s = [], [], [], []
+        for parent, ev in zip(parents, new_events):
+            k = ev.progeny
+            nd = 0
+            if self.replace.dummy_as == "spheres":
+                K = tavares.family_classes_for(self.mat, ev.parent_diameter, self.replace.d_min,
+                                               self.replace.policy)
+                nd = int(tavares.families(self.mat, ev.t10, K).dummy_counts[ev.family])
+            origin += [self.origin[parent]] * k
+            gen += [self.generation[parent] + 1] * k
+            dummy += [False] * (k - nd) + [True] * nd
+            t10s += [ev.t10] * k
+            radial = float(np.hypot(*(ev.position[:2] - ball_xy)))
+            self.event_rows.append((ev.time, *ev.position, radial, self.generation[parent],
+                                    self.origin[parent], ev.parent_diameter, ev.specific_energy,
+                                    ev.fracture_energy, ev.t10, ev.progeny, ev.fines_mass,
+                                    sphere_mass(self.mat.density, ev.parent_diameter)))
+        keep = ~broken
+        self.origin = np.concatenate([self.origin[keep], origin]).astype(int)
+        self.generation = np.concatenate([self.generation[keep], gen]).astype(int)
+        self.dummy = np.concatenate([self.dummy[keep], np.array(dummy, dtype=bool)])
+        self.dummy_t10 = np.concatenate([self.dummy_t10[keep], t10s])
+        assert len(self.origin) == sim.n_particles
+
+
+EVENT_FIELDS = (
+    ("event_time", "s", "time of the breakage event"),
+    ("event_x", "m", "x of the broken particle"),
+    ("event_y", "m", "y of the broken particle"),
+    ("event_z", "m", "z of the broken particle"),
+    ("event_radial", "m", "horizontal distance of the broken particle from the ball's axis"),
+    ("event_generation", "1", "0 = an original bed particle, 1 = its progeny, ..."),
+    ("event_origin", "1", "index of the original bed particle it comes from"),
+    ("event_parent_diameter", "m", "diameter of the broken particle"),
+    ("event_specific_energy", "J kg-1", "absorbed specific energy of the breaking event"),
+    ("event_fracture_energy", "J kg-1", "(damaged) fracture energy it reached"),
+    ("event_t10", "%", "t10' of the event (family grid value)"),
+    ("event_progeny", "1", "progeny spheres (dummy spheres included)"),
+    ("event_fines_mass", "kg", "unresolved fines of the event (dummy_as = fines)"),
+    ("event_parent_mass", "kg", "mass of the broken particle"),
+)
+
+
+def product_passing(sizes, masses, dummy, dummy_t10, events, mat, sieves=SIEVES):
+    """Mass [kg] passing each sieve: resolved spheres by size; dummy spheres and unresolved fines
+    spread below their size by eq 11 (B = (x/x_dummy)^lambda, lambda from eq 12 at their t10')."""
+    passing = np.zeros(len(sieves))
+    res = ~dummy
+    for k, s in enumerate(sieves):
+        passing[k] = masses[res][sizes[res] < s].sum()
+    for d, m, t10 in zip(sizes[dummy], masses[dummy], dummy_t10[dummy]):
+        # x relative to the parent: the dummy is x_min of its parent
+        parent = d / X_MIN
+        passing += m * tavares.fines_passing(t10, sieves / parent, mat)
+    for row in events:
+        fines, t10, parent = row[12], row[10], row[7]
+        if fines > 0:
+            passing += fines * tavares.fines_passing(t10, sieves / parent, mat)
+    return passing
+
+
+# ---- the run ------------------------------------------------------------------------------------
+def run(values, ctx):
+    t_wall = time.perf_counter()
+    tav = tavares.load_materials(values["materials_file"], truncation="bed")
+    name = values["material"]
+    mat = tav[name]
+    table = material_table(values, tav)
+    d = values["particle_diameter"]
+    r = 0.5 * d
+    d_min = tavares.global_min_size(d, values["d_min_ratio"])
+    v0 = ball_speed(values["impact_energy"], values["ball_mass"])
+    Rb = 0.5 * values["ball_diameter"]
+
+    x_bed = bed_positions(values["rings"], values["layers"], d, values["spacing"])
+    n_bed = len(x_bed)
+    anvil = dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")
+    walls = [anvil]
+    holder = values["layers"] > 1
+    if holder:
+        radius_h = float(np.hypot(x_bed[:, 0], x_bed[:, 1]).max()) + r + values["holder_gap"] * d
+        walls.append(dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 0, 1), radius=radius_h,
+                          material="steel"))
+    skin = 0.1 * d
+
+    # stage 1: settle (breakage off: every fracture energy stays infinite)
+    settle = Simulation(SPEC, table, x=x_bed, radius=np.full(n_bed, r), material=name, walls=walls,
+                        skin=skin, impact_speed=1.0, seed=values["seed"], breakage={})
+    settle_steps = int(round(values["settle_time"] / settle.dt))
+    if settle_steps:
+        settle.run(settle_steps, chunk=max(1, settle_steps // 4))
+    p = settle.particles
+    x_set, v_set, w_set = p.x.copy(), p.v.copy(), p.w.copy()
+    settle_ke = settle.kinetic_energy()
+
+    # stage 2: the drop
+    top = float((x_set[:, 2] + r).max())
+    gap = values["ball_gap"]
+    v_start = math.sqrt(max(v0**2 - 2.0 * G * gap, 0.0))
+    x_ball = np.array([0.0, 0.0, top + gap + Rb])
+    x_all = np.vstack([x_ball, x_set])
+    v_all = np.vstack([[0.0, 0.0, -v_start], v_set])
+    w_all = np.vstack([np.zeros(3), w_set])
+    radius = np.concatenate([[Rb], np.full(n_bed, r)])
+    material = ["steel"] + [name] * n_bed
+    sim = Simulation(SPEC, table, x=x_all, radius=radius, material=material, v=v_all, w=w_all,
+                     walls=walls, skin=skin, impact_speed=max(v0, 1.0),
+                     max_overlap=values["max_overlap"], v_max=values["v_max"], seed=values["seed"],
+                     breakage={name: (mat.gamma, mat.e_min)}, smallest_radius=0.5 * d_min,
+                     dt=values["dt"] or None)
+    replace = TavaresReplacement({name: mat}, d_min=d_min, seed=values["seed"],
+                                 dummy_as=values["dummy_as"])
+    replace.assign_fracture_energies(sim, np.arange(1, n_bed + 1))
+    tracker = _Tracker(replace, mat, n_bed + 1, values)
+    bed_mass0 = replace.resolved_mass(sim)
+    m_ball = 1.0 / sim.particles.inv_mass[0]
+    e_ball0 = 0.5 * m_ball * v_start**2 + m_ball * G * x_ball[2]
+
+    dt = sim.dt
+    record = max(1, int(round(values["record_interval"] / dt)))
+    probe = max(1, record // 20)  # finer chunks until the first contact
+    series = {k: [] for k in ("time", "ball_z", "ball_vz", "ball_force", "n_particles",
+                              "bed_kinetic_energy", "ball_energy", "broken_events",
+                              "max_fragment_speed")}
+    touched_radial = [0.0]
+
+    def ball_contacts(s):
+        q = s.particles
+        dist = np.linalg.norm(q.x[1:] - q.x[0], axis=1)
+        return np.flatnonzero(dist < q.radius[1:] + q.radius[0]) + 1
+
+    def observe(s):
+        q = s.particles
+        m = s.masses()
+        ke_bed = float(0.5 * (m[1:] * (q.v[1:] ** 2).sum(1)).sum())
+        vb = q.v[0]
+        e_b = 0.5 * m_ball * float(vb @ vb) + m_ball * G * float(q.x[0, 2])
+        series["time"].append(s.time)
+        series["ball_z"].append(float(q.x[0, 2]))
+        series["ball_vz"].append(float(vb[2]))
+        series["ball_force"].append(float(m_ball * (q.acc[0, 2] + G)))
+        series["n_particles"].append(s.n_particles - 1)
+        series["bed_kinetic_energy"].append(ke_bed)
+        series["ball_energy"].append(e_b)
+        series["broken_events"].append(len(replace.events))
+        series["max_fragment_speed"].append(float(np.linalg.norm(q.v[1:], axis=1).max()))
+        hit = ball_contacts(s)
+        if len(hit):
+            rad = np.hypot(*(q.x[hit, :2] - q.x[0, :2]).T)
+            touched_radial[0] = max(touched_radial[0], float(rad.max()))
+        ctx.snapshot(s)
+
+    t_contact = None
+    t_clear = None
+    observe(sim)
+    ctx_progress_next = 0.0
+    while True:
+        chunk = probe if t_contact is None else record
+        sim.run(chunk, chunk=chunk, on_fracture=tracker)
+        hit = ball_contacts(sim)
+        if t_contact is None:
+            if len(hit):
+                t_contact = sim.time
+                if holder:
+                    sim.walls[1, 7] = HOLDER_OFF_RADIUS
+            elif sim.time > 10 * (gap / max(v_start, 1e-3)) + 0.01:
+                raise RuntimeError("bed_impact: the ball never reached the bed")
+            if sim.step % record < chunk:
+                observe(sim)
+            continue
+        observe(sim)
+        if ctx.progress and sim.time - t_contact >= ctx_progress_next:
+            print(f"[millsim] t - t_contact = {1e3 * (sim.time - t_contact):.3f} ms, "
+                  f"{sim.n_particles - 1} particles, {len(replace.events)} breakage events, "
+                  f"ball vz = {sim.particles.v[0, 2]:.3f} m/s", flush=True)
+            ctx_progress_next += 1e-3
+        rebounding = sim.particles.v[0, 2] > 0
+        if len(hit) or not rebounding:
+            t_clear = None
+        elif t_clear is None:
+            t_clear = sim.time
+        if t_clear is not None and sim.time - t_clear >= values["release_time"]:
+            break
+        if sim.time - t_contact >= values["max_time"]:
+            break
+
+    # ---- outputs ----
+    q = sim.particles
+    bed = np.arange(1, sim.n_particles)
+    sizes = 2.0 * q.radius[bed]
+    masses = sim.masses()[bed]
+    dummy = tracker.dummy[bed]
+    dummy_t10 = tracker.dummy_t10[bed]
+    events = tracker.event_rows
+    fines = replace.fines_mass
+    total = float(masses.sum() + fines)
+    passing = product_passing(sizes, masses, dummy, dummy_t10, events, mat)
+    passing_total = product_passing(sizes, masses, dummy, dummy_t10, events, mat,
+                                    np.array([BROKEN_SIEVE]))[0]
+    broken_mass = float(passing_total)
+    gen0 = [row for row in events if row[5] == 0]
+    capture = max((row[4] for row in gen0), default=0.0)
+    broken_originals = len({int(row[6]) for row in events})
+    absorbed = float(sum(row[8] * row[13] for row in events))
+    ev = np.array(events, dtype=float).reshape(-1, len(EVENT_FIELDS))
+
+    coords = {
+        "time": ("time", np.array(series.pop("time")), {"units": "s", "long_name": "simulated time"}),
+        "sieve": ("sieve", SIEVES, {"units": "m", "long_name": "sieve aperture"}),
+        "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event index"}),
+    }
+    meta = {"ball_z": ("m", "height of the ball centre"),
+            "ball_vz": ("m s-1", "vertical velocity of the ball"),
+            "ball_force": ("N", "vertical force of bed and anvil on the ball"),
+            "n_particles": ("1", "bed particles and fragments (resolved spheres)"),
+            "bed_kinetic_energy": ("J", "kinetic energy (translation) of bed particles and fragments"),
+            "ball_energy": ("J", "kinetic + potential (z = 0) energy of the ball"),
+            "broken_events": ("1", "cumulative breakage events"),
+            "max_fragment_speed": ("m s-1", "largest speed of a bed particle or fragment")}
+    data = {k: ("time", np.asarray(vals, dtype=float), {"units": meta[k][0], "long_name": meta[k][1]})
+            for k, vals in series.items()}
+    for col, (key, unit, long) in enumerate(EVENT_FIELDS):
+        data[key] = ("event", ev[:, col], {"units": unit, "long_name": long})
+    scalars = {
+        "bed_mass": (bed_mass0, "kg", "initial bed mass (particles x sphere mass)"),
+        "n_bed_particles": (n_bed, "1", "particles in the bed"),
+        "broken_mass": (broken_mass, "kg", "mass passing 4.75 mm after impact (broken mass)"),
+        "broken_fraction": (broken_mass / bed_mass0, "1", "broken mass / bed mass"),
+        "capture_radius": (capture, "m",
+                           "largest distance from the ball's axis of an original bed particle that broke"),
+        "touched_radius": (touched_radial[0], "m",
+                           "largest distance from the ball's axis of a particle the ball touched (recorded cadence)"),
+        "broken_particles": (broken_originals, "1", "original bed particles that broke"),
+        "breakage_events": (len(events), "1", "breakage events (all generations)"),
+        "fines_mass": (fines, "kg", "unresolved fines (dummy_as = fines)"),
+        "dummy_mass": (float(masses[dummy].sum()), "kg", "mass of the dummy spheres (fines below x_min of their parent)"),
+        "mass_balance_error": (total - bed_mass0, "kg", "resolved + fines - initial bed mass"),
+        "impact_speed": (v0, "m s-1", "ball speed at first contact"),
+        "ball_energy_initial": (e_ball0, "J", "ball kinetic + potential energy at the start"),
+        "ball_energy_final": (series["ball_energy"][-1], "J", "ball kinetic + potential energy at the end"),
+        "breakage_energy": (absorbed, "J", "absorbed energy of the breaking events (sum of Ek')"),
+        "settle_kinetic_energy": (settle_ke, "J", "bed kinetic energy left after settling"),
+        "contact_time": (sim.time - t_contact, "s", "time from first contact to the end of the run"),
+        "first_contact_time": (t_contact, "s", "time of the first ball-bed contact (holder removed)"),
+    }
+    for key, (val, unit, long) in scalars.items():
+        data[key] = ((), float(val), {"units": unit, "long_name": long})
+    data["passing"] = ("sieve", passing, {"units": "kg", "long_name": "bed mass passing the sieve"})
+    data["passing_fraction"] = ("sieve", passing / bed_mass0,
+                                {"units": "1", "long_name": "cumulative fraction passing (incl. fines)"})
+    ds = xr.Dataset(data, coords=coords)
+    return ds, RunInfo(seed=values["seed"], dt=dt, steps=sim.step + settle_steps,
+                       wall_time_s=time.perf_counter() - t_wall,
+                       extra={"dt_limit": sim.dt_report.limit, "settle_dt": settle.dt,
+                              "settle_steps": settle_steps, "impact_steps": sim.step,
+                              "d_min": d_min, "ball_density": ball_density(values["ball_mass"],
+                                                                            values["ball_diameter"]),
+                              "holder_radius": float(walls[1]["radius"]) if holder else 0.0})
+
+
+register(Scene("bed_impact", "steel ball dropped on a particle bed, Tavares breakage (seed 002)",
+               PARAMS, run, (_check,)))

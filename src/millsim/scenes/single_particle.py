@@ -1,0 +1,466 @@
+"""Scene ``single_particle``: single-particle breakage tests of the Tavares model (seed 002 4.1).
+
+N particles of one material and size are stressed at one set specific energy, all in one
+simulation: they sit on a square grid, far enough apart never to touch, above one steel plate.
+
+Modes:
+
+- ``single``: each particle flies at the plate with v = sqrt(2 Ek/m) (one contact).
+- ``drop_weight``: each particle rests on the steel anvil (the plate) and a steel striker (a sphere
+  ``striker_ratio`` times the particle diameter) hits it from above with 1/2 M v^2 = Ek; the
+  absorbed energy of the striker-particle and particle-anvil contacts is summed (eq 14). This is
+  seed 002's "double impact" (DWT).
+- ``repeated``: ``impacts`` successive single impacts at the same energy; between impacts the
+  unbroken (damaged) particles are put back above the plate with the impact velocity. The
+  cumulative fraction broken after each impact is recorded (seed 002 Fig. 11). With impacts = 2
+  this is also "two successive impacts, the second on the damaged survivors".
+
+**The set specific energy is the stressing (input) energy** Ek/m: 1/2 v^2 (or 1/2 M v^2/m), the
+x-axis of seed 002 Figs 8-11 and 16 and the basis of Table 4's E_inf. The particle absorbs
+e = k_s/(k_p + k_s) of it (eq 4); the analytic model (millsim.analysis.tavares_verification) is
+eq 1 at e Ek/m with the absorbed median, identical to eq 1 at Ek/m with median E_inf[1+(d0/d)^phi].
+Give it in J/kg (``specific_energy``) or as a multiple of that stressing-basis median
+(``energy_ratio``, used when specific_energy = 0: the same ratios give comparable probabilities
+for every material).
+
+Gravity is off: flight before and after an impact takes microseconds and gravity would add
+~g d/v^2 (< 1e-3) to the energy. Time step: the engine's recommended step (0.1 Rayleigh time of
+the smallest particle present, and >= 50 steps per Hertz contact at the impact speed), times
+``dt_factor``; it follows the fragments as they appear. Contacts: seed 002 Table 6 restitution and
+sliding friction; rolling friction is left out (it plays no part in a head-on loading).
+
+Broken particles are either replaced by progeny families (``replacement``, default for single
+and drop_weight: progeny size distribution, secondary breakage, t10) with the dummy class kept as
+fines mass (its size distribution below x_min follows eq 11 with the event's t10'), or just
+counted and removed (``replacement = false``, and always in ``repeated``): breakage probability
+only, much cheaper. The breakage decision of an original particle is the same either way.
+
+Every particle's fracture energy is drawn from the counter-based generator with a key derived
+from (seed, mode, material, diameter, energy, N, gamma, truncation), so the points of a sweep are
+independent samples.
+
+Per particle the case records whether it broke (and at which impact), its initial and final
+fracture energy, the absorbed specific energy of its (first) stressing event, the t10' of its
+primary breakage, its product's t10 and the number of progeny; per breakage event (including
+secondary ones) time, generation, energies, t10', family and fines; the broken fraction with its
+95 % Clopper-Pearson interval and the analytic value; and with replacement the cumulative size
+distribution of the broken particles' product on the 2^(1/4) series down to 2^-10 of the size,
+fines included, with the model's.
+"""
+
+import dataclasses
+import math
+import time
+import zlib
+
+import numpy as np
+import xarray as xr
+
+from ..analysis import tavares_verification as tv
+from ..breakage import tavares
+from ..breakage.replacement import TavaresReplacement
+from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from ..engine.materials import effective_moduli
+from ..engine.timestep import hertz_contact_time
+from .base import Param, RunInfo, Scene, register
+
+SPEC = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, gravity=False, fracture="tavares")
+MODES = ("single", "drop_weight", "repeated")
+MATERIALS = ("copper_ore", "limestone", "granulite")
+SIEVES = tavares.SIEVE_RATIO ** -np.arange(0.0, 41.0)  # x/d0 from 1 to 2^-10
+GAP = 0.01  # initial gap to the plate / striker, in particle radii
+
+PARAMS = (
+    Param("mode", "single", "single impact on a plate, drop-weight test (striker + anvil, two "
+          "contacts summed), or repeated impacts", choices=MODES),
+    Param("material", "copper_ore", "particle material (config/materials.yaml)", choices=MATERIALS),
+    Param("diameter", 5.5e-3, "particle diameter", "m", 0.0, lo_open=True),
+    Param("specific_energy", 0.0, "set input (stressing) specific energy Ek/m; 0 = energy_ratio "
+          "x the stressing-basis median E_inf[1+(d0/d)^phi]", "J kg-1", 0.0),
+    Param("energy_ratio", 1.0, "Ek/m as a multiple of the stressing-basis median (when "
+          "specific_energy = 0)", "1", 0.0, lo_open=True),
+    Param("n_particles", 250, "particles stressed", "1", 1),
+    Param("impacts", 20, "successive impacts (mode repeated)", "1", 1, 1000),
+    Param("gamma", 0.0, "damage coefficient of eq 6; 0 = the material's (Table 4)", "1", 0.0),
+    Param("truncation", "single_particle", "Emax/E50 of config/materials.yaml: single_particle "
+          "(4, seed 002 verification) or bed (100)", choices=("single_particle", "bed")),
+    Param("replacement", True, "replace broken particles by progeny families (single and "
+          "drop_weight); false: count and remove them"),
+    Param("restitution", 0.39, "particle-steel restitution (Table 6)", "1", 0.0, 1.0, lo_open=True),
+    Param("restitution_pp", 0.48, "particle-particle restitution (Table 6; fragments)", "1", 0.0, 1.0,
+          lo_open=True),
+    Param("friction", 0.5, "particle-steel sliding friction (Table 6)", "1", 0.0),
+    Param("friction_pp", 0.49, "particle-particle sliding friction (Table 6)", "1", 0.0),
+    Param("striker_ratio", 4.0, "drop-weight striker diameter / particle diameter", "1", 1.0),
+    Param("spacing", 3.0, "grid pitch / diameter of the largest body", "1", 1.5),
+    Param("dt_factor", 1.0, "time step as a fraction of the engine's recommended step", "1",
+          0.0, 1.0, lo_open=True),
+    Param("contact_times", 25.0, "cap on the simulated time of one impact, in Hertz contact times",
+          "1", 2.0),
+    Param("max_overlap", 0.95, "guard: overlap / smaller radius that stops the run (small "
+          "unbreakable fragments squeezed by large ones at high energy reach ~0.5)", "1", 0.0, 1.0,
+          lo_open=True),
+    Param("seed", 1, "random seed (fracture energies, families)", "1", 0),
+)
+
+
+def _check(values):
+    if values["mode"] == "repeated" and values["replacement"] and values["impacts"] < 1:
+        raise ValueError("impacts: at least 1")
+
+
+@dataclasses.dataclass
+class Setup:
+    values: dict
+    mat: tavares.TavaresMaterial
+    steel: tavares.TavaresMaterial
+    share: float
+    specific_energy: float
+    speed: float
+    mass: float
+    sim: Simulation
+    ids: np.ndarray  # original particle of every simulated particle (striker of k: -2 - k)
+    gen: np.ndarray  # generation (0: original)
+    home: np.ndarray  # (N, 3) start position of each original
+    t_contact: float
+    case_seed: int
+
+
+def _materials(values):
+    mats = tavares.load_materials(truncation=values["truncation"])
+    mat = mats[values["material"]]
+    if values["gamma"] > 0:
+        mat = dataclasses.replace(mat, gamma=values["gamma"])
+    return mat, mats["steel"]
+
+
+def case_seed(values):
+    """Seed of the fracture-energy and family draws: independent per point of a sweep."""
+    key = (f"{values['seed']}|{values['mode']}|{values['material']}|{values['diameter']!r}|"
+           f"{values['specific_energy']!r}|{values['energy_ratio']!r}|{values['n_particles']}|"
+           f"{values['gamma']!r}|{values['truncation']}")
+    return zlib.crc32(key.encode()) & 0x7FFFFFFF
+
+
+def build(values):
+    mat, steel = _materials(values)
+    share = tv.absorbed_share(mat, steel.k)
+    d = values["diameter"]
+    r = 0.5 * d
+    E = values["specific_energy"] or values["energy_ratio"] * tv.stressing_median(mat, d, share)
+    m = mat.density * math.pi / 6.0 * d**3
+    n = values["n_particles"]
+    drop = values["mode"] == "drop_weight"
+    rs = values["striker_ratio"] * r
+    pitch = values["spacing"] * 2.0 * (rs if drop else r)
+    side = math.ceil(math.sqrt(n))
+    k = np.arange(n)
+    xy = np.column_stack([(k % side) * pitch, (k // side) * pitch])
+    if drop:
+        M = steel.density * 4.0 / 3.0 * math.pi * rs**3
+        speed = math.sqrt(2.0 * E * m / M)
+        xp = np.column_stack([xy, np.full(n, r)])  # resting on the anvil, zero overlap
+        xs = np.column_stack([xy, np.full(n, 2 * r + rs + GAP * r)])
+        x = np.vstack([xp, xs])
+        radius = np.concatenate([np.full(n, r), np.full(n, rs)])
+        material = [mat.name] * n + ["steel"] * n
+        v = np.vstack([np.zeros((n, 3)), np.tile([0.0, 0.0, -speed], (n, 1))])
+        ids = np.concatenate([k, -2 - k])  # striker of particle k: -2 - k
+        m_eff, r_eff = M * m / (M + m), r * rs / (r + rs)
+    else:
+        speed = math.sqrt(2.0 * E)
+        x = np.column_stack([xy, np.full(n, r * (1 + GAP))])
+        radius = np.full(n, r)
+        material = mat.name
+        v = np.tile([0.0, 0.0, -speed], (n, 1))
+        ids = k.copy()
+        m_eff, r_eff = m, r
+    ore = Material(mat.name, mat.density, mat.young, mat.poisson)
+    st = Material("steel", steel.density, steel.young, steel.poisson)
+    table = MaterialTable([ore, st], {
+        "*": Interaction(restitution=values["restitution_pp"], friction=values["friction_pp"]),
+        (mat.name, "steel"): Interaction(restitution=values["restitution"], friction=values["friction"]),
+        ("steel", "steel"): Interaction(restitution=0.5, friction=0.5)})
+    seed = case_seed(values)
+    sim = Simulation(SPEC, table, x=x, radius=radius, material=material, v=v, gravity=(0, 0, 0),
+                     walls=[{"kind": "plane", "point": (0, 0, 0), "normal": (0, 0, 1), "material": "steel"}],
+                     breakage={mat.name: (mat.gamma, mat.e_min)}, impact_speed=max(speed, 0.1),
+                     seed=seed, max_overlap=values["max_overlap"],
+                     # guard against numerical blow-up only: small unbreakable fragments squeezed
+                     # out between large ones (or a striker) legitimately fly off fast
+                     v_max=max(100.0, 20.0 * math.sqrt(2.0 * E)))
+    sim.set_time_step(values["dt_factor"] * sim.dt_report.recommended)
+    e_star, _ = effective_moduli(ore, st)
+    t_c = hertz_contact_time(m_eff, r_eff, e_star, max(speed, 1e-3))
+    return Setup(values, mat, steel, share, E, speed, m, sim, ids, np.zeros(len(ids), np.int64),
+                 x[:n].copy(), t_c, seed)
+
+
+class Books:
+    """Breakage records of a run, per original particle and per event."""
+
+    def __init__(self, s: Setup, replace: TavaresReplacement | None):
+        n = s.values["n_particles"]
+        self.s = s
+        self.replace = replace
+        self.impact = 1
+        self.broken_at = np.zeros(n, np.int64)  # impact at which the original broke (0: never)
+        self.absorbed = np.full(n, np.nan)  # absorbed specific energy of the breaking event
+        self.e_break = np.full(n, np.nan)  # (damaged) fracture energy it exceeded
+        self.t10_primary = np.full(n, np.nan)
+        self.events = []  # (time, parent id, generation, parent d, specific, E, t10, family, k, fines)
+
+    def on_fracture(self, sim):
+        s = self.s
+        n_rows = int(sim.n_fractures[0])
+        rows = sim.fractures[:n_rows].copy()
+        idx = rows[:, 0].astype(np.int64)
+        parents, gens = s.ids[idx], s.gen[idx]
+        e_frac = sim.particles.e_frac[idx].copy()
+        keep = np.ones(sim.n_particles, bool)
+        keep[idx] = False
+        if self.replace is None:
+            # counted only: the particle stays as an unbreakable stand-in for its fragments
+            # (removing it could leave no free particle at all) and is retired from the books
+            sim.pop_fractures()
+            sim.particles.e_frac[idx] = np.inf
+            s.gen[idx] = -1
+            for row, pid, g, e in zip(rows, parents, gens, e_frac):
+                t10 = float(tavares.t10_prime(s.mat, row[1], e))
+                self.events.append((sim.time, pid, g, s.values["diameter"], row[1], e, t10, -1, 0, 0.0))
+        else:
+            k0 = len(self.replace.events)
+            self.replace(sim)
+            new = self.replace.events[k0:]
+            counts = np.array([ev.progeny for ev in new], np.int64)
+            for ev, pid, g in zip(new, parents, gens):
+                self.events.append((ev.time, pid, g, ev.parent_diameter, ev.specific_energy,
+                                    ev.fracture_energy, ev.t10, ev.family, ev.progeny, ev.fines_mass))
+            s.ids = np.concatenate([s.ids[keep], np.repeat(parents, counts)])
+            s.gen = np.concatenate([s.gen[keep], np.repeat(gens + 1, counts)])
+            limit = s.values["dt_factor"] * sim.dt_report.recommended
+            if sim.dt > limit:
+                sim.set_time_step(limit)
+        for j, (pid, g) in enumerate(zip(parents, gens)):
+            if g == 0 and pid >= 0 and self.broken_at[pid] == 0:
+                self.broken_at[pid] = self.impact
+                self.absorbed[pid] = rows[j, 1]
+                self.e_break[pid] = e_frac[j]
+                self.t10_primary[pid] = self.events[-len(idx) + j][6]
+
+
+def _quiet(sim, v_tol):
+    """The impact is over: no particle is in a loading event, none approaches the plate and no pair
+    approaches each other faster than ``v_tol`` (no gravity: nothing comes back). Approaches
+    slower than v_tol = 10 % of the impact speed carry 1 % of the set energy, far below the
+    fracture energy of any fragment (fragments squeezed out sideways keep flying slowly towards
+    the plate for milliseconds)."""
+    p = sim.particles
+    if (p.e_acc > 0).any() or (p.v[:, 2] < -v_tol).any():
+        return False
+    i, j, _ = sim.contact_pairs()
+    if len(i):
+        d = p.x[i] - p.x[j]
+        vn = np.einsum("ij,ij->i", p.v[i] - p.v[j], d) / np.linalg.norm(d, axis=1)
+        if (vn < -v_tol).any():
+            return False
+    return True
+
+
+def _run_impact(s: Setup, books: Books):
+    """Advance until the impact is over (or the contact-time cap); returns (converged, steps)."""
+    sim = s.sim
+    t_end = sim.time + s.values["contact_times"] * s.t_contact
+    steps0 = sim.step
+    while sim.time < t_end:
+        chunk = max(10, int(0.25 * s.t_contact / sim.dt))
+        sim.run(chunk, chunk=chunk, on_fracture=books.on_fracture)
+        if _quiet(sim, 0.1 * s.speed):
+            return True, sim.step - steps0
+    return False, sim.step - steps0
+
+
+def _reset_survivors(s: Setup):
+    """Put every unbroken original back above the plate with the impact velocity (the retired
+    stand-ins of the broken ones leave)."""
+    sim = s.sim
+    retired = s.gen < 0
+    sim.remove_particles(retired)
+    s.ids, s.gen = s.ids[~retired], s.gen[~retired]
+    p = sim.particles
+    p.x[:] = s.home[s.ids]
+    p.v[:] = [0.0, 0.0, -s.speed]
+    p.w[:] = 0.0
+    p.e_acc[:] = 0.0
+    sim.wall_hist[:] = 0.0
+    sim.remove_particles(np.zeros(sim.n_particles, bool))  # rebuilds the neighbour list
+
+
+def absorbed_from_damage(e_before, e_after, gamma):
+    """Absorbed specific energy of one unbroken event, from the damage it did (eq 6 inverted):
+    r = D^(5/(2 gamma)) (2 gamma - 5 D + 5)/(2 gamma), D = 1 - E_after/E_before."""
+    D = 1.0 - np.asarray(e_after, float) / np.asarray(e_before, float)
+    c = 2.0 * gamma
+    with np.errstate(invalid="ignore"):
+        r = np.clip(D, 0.0, 1.0) ** (5.0 / c) * (c - 5.0 * D + 5.0) / c
+    return r * np.asarray(e_before, float)
+
+
+def _product(s: Setup, books: Books, sieves):
+    """Cumulative % passing ``sieves`` (x/d0) of each original's product (fines of each event
+    spread below x_min by eq 11 with the event's t10'), and the worst relative mass balance."""
+    sim, n, d0 = s.sim, s.values["n_particles"], s.values["diameter"]
+    p = sim.particles
+    m0 = s.mass
+    mine = s.ids >= 0
+    d = 2.0 * p.radius[mine]
+    mass = s.mat.density * math.pi / 6.0 * d**3
+    owner = s.ids[mine]
+    per = np.zeros((n, len(sieves)))
+    for k, x in enumerate(sieves):
+        sel = d < x * d0 * (1 - 1e-9)
+        per[:, k] = np.bincount(owner[sel], weights=mass[sel], minlength=n)
+    fines_total = np.zeros(n)
+    for ev in books.events:
+        fines = ev[9]
+        if fines > 0:
+            pid = int(ev[1])
+            per[pid] += fines * tavares.fines_passing(ev[6], sieves * d0 / ev[3], s.mat)
+            fines_total[pid] += fines
+    resolved = np.bincount(owner, weights=mass, minlength=n)
+    balance = float(np.max(np.abs(resolved + fines_total - m0)) / m0)
+    return 100.0 * per / m0, balance
+
+
+def run(values, ctx):
+    t_wall = time.perf_counter()
+    s = build(values)
+    sim = s.sim
+    n = values["n_particles"]
+    mode = values["mode"]
+    replacing = values["replacement"] and mode != "repeated"
+    replace = TavaresReplacement({s.mat.name: s.mat}, d_min=tavares.global_min_size(values["diameter"]),
+                                 seed=s.case_seed, dummy_as="fines")
+    originals = np.flatnonzero(s.ids >= 0)
+    replace.assign_fracture_energies(sim, originals)
+    e_initial = sim.particles.e_frac[originals].copy()
+    books = Books(s, replace if replacing else None)
+    impacts = values["impacts"] if mode == "repeated" else 1
+    converged, per_impact = [], []
+    e_before = e_initial.copy()
+    absorbed_first = np.full(n, np.nan)
+    ctx.snapshot(sim)
+    for k in range(1, impacts + 1):
+        books.impact = k
+        ok, _ = _run_impact(s, books)
+        converged.append(ok)
+        per_impact.append(int((books.broken_at > 0).sum()))
+        alive = (s.gen == 0) & (s.ids >= 0)
+        if k == 1:
+            # absorbed energy of the first event of the survivors, from the damage it did
+            e_now = np.full(n, np.nan)
+            e_now[s.ids[alive]] = sim.particles.e_frac[alive]
+            surv = np.isfinite(e_now)
+            absorbed_first[surv] = absorbed_from_damage(e_before[surv], e_now[surv], s.mat.gamma)
+        ctx.snapshot(sim)
+        if k < impacts:
+            if not alive.any():
+                per_impact += [per_impact[-1]] * (impacts - k)
+                converged += [True] * (impacts - k)
+                break
+            _reset_survivors(s)
+    broken = books.broken_at > 0
+    first = broken & (books.broken_at == 1)
+    absorbed_first[first] = books.absorbed[first]
+    e_final = np.full(n, np.nan)
+    p = sim.particles
+    alive = (s.gen == 0) & (s.ids >= 0)
+    e_final[s.ids[alive]] = p.e_frac[alive]
+
+    d0 = values["diameter"]
+    nb = int(broken.sum())
+    lo, hi = tv.binomial_interval(nb, n)
+    analytic = float(tv.breakage_probability(s.mat, d0, s.specific_energy, s.share))
+    data = {
+        "particle_broken": ("particle", broken.astype(np.int8), {"units": "1", "long_name": "broke (1) or not (0)"}),
+        "particle_broken_at_impact": ("particle", books.broken_at, {"units": "1", "long_name": "impact at which it broke (0: never)"}),
+        "particle_fracture_energy_initial": ("particle", e_initial, {"units": "J kg-1", "long_name": "fracture energy drawn at creation (absorbed basis)"}),
+        "particle_fracture_energy_final": ("particle", e_final, {"units": "J kg-1", "long_name": "damaged fracture energy at the end (NaN: broke)"}),
+        "particle_fracture_energy_at_break": ("particle", books.e_break, {"units": "J kg-1", "long_name": "(damaged) fracture energy the breaking event reached"}),
+        "particle_absorbed_energy": ("particle", absorbed_first, {"units": "J kg-1", "long_name": "absorbed specific energy of the first event (at breakage if it broke; from its damage, eq 6 inverted, if not)"}),
+        "particle_t10_primary": ("particle", books.t10_primary, {"units": "%", "long_name": "t10' of its primary breakage event (eq 8)"}),
+        "n_particles": ((), n, {"units": "1", "long_name": "particles stressed"}),
+        "n_broken": ((), nb, {"units": "1", "long_name": "particles broken"}),
+        "broken_fraction": ((), nb / n, {"units": "1", "long_name": "fraction broken"}),
+        "broken_fraction_ci_lo": ((), float(lo), {"units": "1", "long_name": "95% Clopper-Pearson lower bound"}),
+        "broken_fraction_ci_hi": ((), float(hi), {"units": "1", "long_name": "95% Clopper-Pearson upper bound"}),
+        "specific_energy": ((), s.specific_energy, {"units": "J kg-1", "long_name": "set input (stressing) specific energy Ek/m"}),
+        "energy_ratio": ((), s.specific_energy / tv.stressing_median(s.mat, d0, s.share), {"units": "1", "long_name": "Ek/m over the stressing-basis median E50"}),
+        "absorbed_share": ((), s.share, {"units": "1", "long_name": "absorbed share of the input energy, eq 4 vs steel"}),
+        "impact_speed": ((), s.speed, {"units": "m s-1", "long_name": "speed of the particle (single, repeated) or striker (drop_weight)"}),
+        "median_fracture_energy": ((), float(tavares.median_fracture_energy(s.mat, d0)), {"units": "J kg-1", "long_name": "E50 (absorbed basis, eq 3)"}),
+        "gamma_used": ((), s.mat.gamma, {"units": "1", "long_name": "damage coefficient used"}),
+        "converged": (("impact",), np.array(converged, np.int8), {"units": "1", "long_name": "impact ended before the time cap"}),
+    }
+    if mode == "repeated":
+        cum = np.array(per_impact, float)
+        ilo, ihi = tv.binomial_interval(cum, n)
+        data.update(
+            impact_broken_fraction=(("impact",), cum / n, {"units": "1", "long_name": "cumulative fraction broken after each impact"}),
+            impact_broken_fraction_ci_lo=(("impact",), ilo, {"units": "1", "long_name": "95% Clopper-Pearson lower"}),
+            impact_broken_fraction_ci_hi=(("impact",), ihi, {"units": "1", "long_name": "95% Clopper-Pearson upper"}),
+            impact_broken_fraction_analytic=(("impact",), tv.repeated_impact_broken(
+                s.mat, d0, s.specific_energy, s.share, impacts), {"units": "1", "long_name": "damage model, eqs 1-6"}),
+        )
+        analytic = float(data["impact_broken_fraction_analytic"][1][-1])
+    data["broken_fraction_analytic"] = ((), analytic, {"units": "1", "long_name": "analytic probability (eqs 1-3; after all impacts for repeated)"})
+    ev = np.array(books.events, dtype=float).reshape(-1, 10)
+    for col, (name, unit, long) in enumerate([
+            ("event_time", "s", "time of breakage"), ("event_particle", "1", "original particle"),
+            ("event_generation", "1", "0: original, 1: its progeny, ..."),
+            ("event_parent_diameter", "m", "diameter of the breaking particle"),
+            ("event_specific_energy", "J kg-1", "absorbed specific energy at breakage"),
+            ("event_fracture_energy", "J kg-1", "fracture energy exceeded"),
+            ("event_t10", "%", "t10' of the event (family grid value)"),
+            ("event_family", "1", "family drawn (-1: no replacement)"),
+            ("event_progeny", "1", "resolved progeny spheres"),
+            ("event_fines_mass", "kg", "unresolved fines (dummy class) mass")]):
+        data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
+    data["t10_primary_model"] = ((), tavares.t10_min(s.mat), {"units": "%", "long_name": "eq 9: t10' at breakage at the fracture energy"})
+    coords = {"particle": ("particle", np.arange(n), {"units": "1", "long_name": "particle index"}),
+              "impact": ("impact", np.arange(1, len(converged) + 1), {"units": "1", "long_name": "impact number"}),
+              "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
+    if replacing:
+        per, balance = _product(s, books, np.append(SIEVES, 0.1))
+        t10_each = np.where(broken, per[:, -1], np.nan)
+        per = per[:, :-1]
+        passing = per[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
+        t10_pool = float(np.nanmean(t10_each)) if nb else math.nan
+        blo, bhi = tv.bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
+        coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
+        data.update(
+            particle_product_t10=("particle", t10_each, {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
+            particle_progeny=("particle", np.bincount(s.ids[s.ids >= 0], minlength=n), {"units": "1", "long_name": "resolved spheres it ended as"}),
+            product_passing=("sieve", passing, {"units": "%", "long_name": "cumulative % passing of the broken particles' product (fines included)"}),
+            product_passing_model=("sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
+                                   {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
+            product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
+            product_t10_ci_lo=((), blo, {"units": "%", "long_name": "95% bootstrap lower"}),
+            product_t10_ci_hi=((), bhi, {"units": "%", "long_name": "95% bootstrap upper"}),
+            product_t10_model=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share), {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
+            product_t10_model_all=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"), {"units": "%", "long_name": "eq 7, E50b = median of all"}),
+            fines_mass=((), replace.fines_mass, {"units": "kg", "long_name": "unresolved fines mass"}),
+            mass_balance_error=((), balance, {"units": "1", "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
+        )
+    ds = xr.Dataset(data, coords=coords)
+    return ds, RunInfo(seed=values["seed"], dt=sim.dt, steps=sim.step,
+                       wall_time_s=time.perf_counter() - t_wall,
+                       extra={"case_seed": s.case_seed, "dt_limit": sim.dt_report.limit,
+                              "dt_binding": sim.dt_report.binding.interaction,
+                              "contact_time_s": s.t_contact, "gravity": "off",
+                              "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"})
+
+
+register(Scene("single_particle", "single-particle impact, drop-weight and repeated-impact tests of "
+               "the Tavares model against its analytic predictions (seed 002 section 4.1)",
+               PARAMS, run, (_check,)))

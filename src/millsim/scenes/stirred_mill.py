@@ -1,0 +1,576 @@
+"""Scene ``stirred_mill``: wet horizontal stirred media mill with pairwise lubrication (seed 004).
+
+A horizontal cylindrical chamber (axis x, gravity -z) with a perforated-disk agitator: disks made
+of rigid spheres on one kinematic ``rotate`` body plus a rotating analytic shaft. The liquid enters
+only as pairwise Jeffrey-Onishi lubrication (``engine/lubrication.py``) between beads, bead-disk
+and bead-wall pairs; with ``eta = 0`` the scene is dry and no lubrication code is compiled.
+Contacts: linear spring-dashpot with history and Coulomb friction (seed 004 eqs 2-4); the
+stiffness comes from E and nu through the LIGGGHTS ``hooke`` formula at a characteristic velocity.
+
+Geometry (LabStar LS1 drawings are not public; every dimension is an approximation chosen so that
+the void volume is the seed's Table 2 value, 0.910 l): the chamber length follows from the void
+volume and the other dimensions (``docs/stirred_mill.md`` gives the arithmetic). ``slice`` runs one
+disk in an axially periodic slice of length chamber_length / disks; ``scale`` shrinks the chamber
+and agitator (not the beads) for quick studies. Outputs: agitator torque and power vs time, steady
+state (MSER-5), mean net power with a block-mean confidence interval, the energy balance, the
+contact-typology split, collision frequency in 9 regions and coarse-grained velocities on a slab.
+"""
+
+import math
+import time
+
+import numpy as np
+import xarray as xr
+from scipy import stats
+from scipy.spatial import cKDTree
+
+from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from ..engine.kinematics import CYLINDER_INNER, CYLINDER_OUTER, PLANE
+from ..engine.lubrication import check_lubrication_params
+from ..engine.timestep import linear_contact_time
+from .base import Param, RunInfo, Scene, register
+
+G = 9.81
+AXIS = np.array([1.0, 0.0, 0.0])
+TYPOLOGY = ("impact", "torsion", "shearing", "rolling")
+AUDIT = ("contact_normal_damping", "contact_tangential_translation", "contact_tangential_rotation",
+         "lubrication_normal", "lubrication_tangential")
+REGIONS = tuple(f"{r}{a}" for r in "123" for a in "FCB")
+
+PARAMS = (
+    # operation
+    Param("rpm", 2500.0, "agitator speed", "min-1", 0.0, lo_open=True),
+    Param("eta", 0.0, "simulation viscosity eta_f,sim of the pairwise lubrication; 0 = dry "
+          "(no lubrication code compiled)", "Pa s", 0.0),
+    Param("h_min", 0.001, "lubrication inner cutoff, fraction of the smaller diameter of a pair",
+          "1", 0.0, lo_open=True),
+    Param("h_max", 0.05, "lubrication outer cutoff, fraction of the smaller diameter of a pair",
+          "1", 0.0, 0.5, True, True),
+    Param("filling", 0.432, "bead solid volume / void volume (Table 2: 0.393 l / 0.910 l)", "1",
+          0.0, 0.74, True, True),
+    Param("n_beads", 0, "number of beads; 0 = from filling", "1", 0),
+    # beads (Table 2)
+    Param("bead_diameter_min", 1.8e-3, "smallest bead diameter (diameters uniform in [min, max])",
+          "m", 0.0, lo_open=True),
+    Param("bead_diameter_max", 2.0e-3, "largest bead diameter", "m", 0.0, lo_open=True),
+    Param("density", 6000.0, "bead density", "kg m-3", 0.0, lo_open=True),
+    Param("youngs_modulus", 5e6, "Young's modulus (reduced 1e3 as in the seed)", "Pa", 0.0,
+          lo_open=True),
+    Param("poisson_ratio", 0.45, "Poisson ratio", "1", 0.0, 0.5, False, True),
+    Param("restitution", 0.5, "coefficient of restitution (sets the damping ratio)", "1", 0.0, 1.0,
+          lo_open=True),
+    Param("friction", 0.3, "Coulomb friction coefficient mu_c (calibrated; every pair)", "1", 0.0),
+    Param("tangential_stiffness_ratio", 2.0 / 7.0, "k_t / k_n", "1", 0.0, lo_open=True),
+    Param("characteristic_velocity", 5.0, "v_c of the LIGGGHTS hooke stiffness "
+          "k_n = 16/15 sqrt(R*) Y* (15 m* v_c^2 / (16 sqrt(R*) Y*))^(1/5)", "m s-1", 0.0,
+          lo_open=True),
+    # geometry (approximations of the LS1, full scale; see docs/stirred_mill.md)
+    Param("void_volume", 0.910e-3, "chamber volume minus agitator at scale 1 (Table 2)", "m3", 0.0,
+          lo_open=True),
+    Param("chamber_radius", 0.042, "inner radius of the chamber (approximation)", "m", 0.0,
+          lo_open=True),
+    Param("shaft_radius", 0.012, "agitator shaft radius (approximation)", "m", 0.0, lo_open=True),
+    Param("disks", 4, "perforated disks on the shaft (approximation)", "1", 1),
+    Param("disk_radius", 0.034, "disk outer radius (approximation)", "m", 0.0, lo_open=True),
+    Param("disk_thickness", 0.008, "disk thickness (approximation)", "m", 0.0, lo_open=True),
+    Param("holes", 4, "holes per disk (approximation)", "1", 0),
+    Param("hole_radius", 0.008, "hole radius (approximation)", "m", 0.0),
+    Param("hole_pitch_radius", 0.022, "radius of the circle through the hole centres", "m", 0.0),
+    Param("agitator_particle_radius", 0.9e-3, "radius of the spheres the disks are built of "
+          "(capped at half the scaled disk thickness)", "m", 0.0, lo_open=True),
+    Param("scale", 1.0, "geometric scale of chamber and agitator (beads unchanged)", "1", 0.0, 1.0,
+          lo_open=True),
+    Param("slice", False, "periodic axial slice around one disk (length chamber_length / disks)"),
+    # run
+    Param("revolutions", 8.0, "simulated agitator revolutions", "1", 0.0, lo_open=True),
+    Param("transient_revolutions", 3.0, "revolutions always excluded from steady-state "
+          "statistics (the detected steady state may start later)", "1", 0.0),
+    Param("records_per_revolution", 40, "torque/power records per revolution", "1", 4),
+    Param("initial_swirl", 0.1, "initial bead velocity as a fraction of rigid rotation", "1", 0.0,
+          1.0),
+    Param("steps_per_contact", 25, "dt = t_c(smallest bead pair) / this (and the lubrication "
+          "bound), if dt = 0", "1", 10),
+    Param("dt_factor", 1.0, "multiplies the automatic step (0.5: the synthetic-twin reference)",
+          "1", 0.0, 1.0, lo_open=True),
+    Param("dt", 0.0, "time step; 0 = automatic", "s", 0.0),
+    Param("contact_samples_per_contact", 3, "contact samples per bead-bead contact time "
+          "(collision detection)", "1", 1),
+    Param("ci_blocks", 8, "blocks of the net-power confidence interval", "1", 2),
+    Param("cg_cells", 16, "cells per side of the coarse-grained velocity grid", "1", 2),
+    Param("skin", 0.5e-3, "Verlet list skin (agitator spheres move fast: a list rebuild costs "
+          "several steps)", "m", 0.0, lo_open=True),
+    Param("max_overlap", 0.75, "guard: overlap / smaller radius that stops the run (soft 5 MPa "
+          "beads: the disk spheres' first hits at ~6 m/s reach 0.5)", "1", 0.0, 1.0, True, False),
+    Param("seed", 1, "random seed", "1", 0),
+)
+
+
+def _check(values):
+    if values["bead_diameter_min"] > values["bead_diameter_max"]:
+        raise ValueError("bead_diameter_min: must not exceed bead_diameter_max")
+    if values["transient_revolutions"] >= values["revolutions"]:
+        raise ValueError("transient_revolutions: must be smaller than revolutions")
+    if values["shaft_radius"] >= values["disk_radius"] or values["disk_radius"] >= values["chamber_radius"]:
+        raise ValueError("disk_radius: need shaft_radius < disk_radius < chamber_radius")
+    if values["holes"] and not (values["shaft_radius"] < values["hole_pitch_radius"] - values["hole_radius"]
+                                and values["hole_pitch_radius"] + values["hole_radius"] < values["disk_radius"]):
+        raise ValueError("hole_radius: holes must lie between shaft and disk rim")
+    # eta < 0, h_min >= h_max, h_max >= d/2: the engine's own check, before any job runs
+    check_lubrication_params(values["eta"], values["h_min"], values["h_max"])
+
+
+def geometry(values):
+    """Scaled dimensions [m], chamber length from the void volume, and the bead count."""
+    s = values["scale"]
+    g = {k: values[k] * s for k in ("chamber_radius", "shaft_radius", "disk_radius",
+                                    "disk_thickness", "hole_radius", "hole_pitch_radius")}
+    disk_area = math.pi * (g["disk_radius"] ** 2 - g["shaft_radius"] ** 2) \
+        - values["holes"] * math.pi * g["hole_radius"] ** 2
+    g["disk_volume"] = disk_area * g["disk_thickness"]
+    void = values["void_volume"] * s**3
+    annulus = math.pi * (g["chamber_radius"] ** 2 - g["shaft_radius"] ** 2)
+    g["chamber_length"] = (void + values["disks"] * g["disk_volume"]) / annulus
+    g["pitch"] = g["chamber_length"] / values["disks"]
+    if values["slice"]:
+        g["void_volume"] = void / values["disks"]
+        g["x_lo"], g["length"] = -0.5 * g["pitch"], g["pitch"]
+        g["disk_x"] = np.array([0.0])
+    else:
+        g["void_volume"] = void
+        g["x_lo"], g["length"] = 0.0, g["chamber_length"]
+        g["disk_x"] = (np.arange(values["disks"]) + 0.5) * g["pitch"]
+    d0, d1 = values["bead_diameter_min"], values["bead_diameter_max"]
+    mean_d3 = d0**3 if d1 == d0 else (d1**4 - d0**4) / (4 * (d1 - d0))
+    g["bead_volume"] = math.pi / 6 * mean_d3
+    g["n_beads"] = values["n_beads"] or int(round(values["filling"] * g["void_volume"] / g["bead_volume"]))
+    g["omega"] = values["rpm"] * 2 * math.pi / 60
+    g["tip_speed"] = g["omega"] * g["disk_radius"]
+    return g
+
+
+def contact_stiffness(values):
+    """LIGGGHTS hooke k_n for the mean bead pair: Y* = E / (2 (1 - nu^2)), R* = r/2, m* = m/2."""
+    r = 0.25 * (values["bead_diameter_min"] + values["bead_diameter_max"])
+    m = values["density"] * 4 / 3 * math.pi * r**3
+    y_star = values["youngs_modulus"] / (2 * (1 - values["poisson_ratio"] ** 2))
+    r_star, m_star, vc = 0.5 * r, 0.5 * m, values["characteristic_velocity"]
+    sq = math.sqrt(r_star)
+    return 16 / 15 * sq * y_star * (15 * m_star * vc**2 / (16 * sq * y_star)) ** 0.2
+
+
+def _disk_particles(values, g):
+    """Centres and radius of the spheres forming the perforated disks (staggered hex layers)."""
+    t = g["disk_thickness"]
+    rp = min(values["agitator_particle_radius"], 0.5 * t)
+    a = 1.3 * rp  # in-plane spacing: a bead (>= 0.9 mm) cannot pass between the spheres
+    layers = max(1, int(round(t / (2 * rp))))
+    xs = np.linspace(-0.5 * t + rp, 0.5 * t - rp, layers) if layers > 1 else np.zeros(1)
+    R = g["disk_radius"]
+    n = int(math.ceil(R / a)) + 2
+    iy, iz = np.meshgrid(np.arange(-n, n + 1), np.arange(-n, n + 1), indexing="ij")
+    pts = []
+    for k, x in enumerate(xs):
+        y = (iy + 0.5 * (iz % 2) + 0.5 * (k % 2)) * a
+        z = iz * a * math.sqrt(3) / 2 + (k % 2) * a / (2 * math.sqrt(3))
+        y, z = y.ravel(), z.ravel()
+        rho = np.hypot(y, z)
+        keep = (rho <= R - rp) & (rho >= g["shaft_radius"] + 0.5 * rp)
+        for h in range(values["holes"]):
+            phi = 2 * math.pi * h / values["holes"]
+            cy, cz = g["hole_pitch_radius"] * math.cos(phi), g["hole_pitch_radius"] * math.sin(phi)
+            keep &= np.hypot(y - cy, z - cz) >= g["hole_radius"]
+        pts.append(np.column_stack([np.full(keep.sum(), x), y[keep], z[keep]]))
+    one = np.vstack(pts)
+    return np.vstack([one + [x0, 0, 0] for x0 in g["disk_x"]]), rp
+
+
+def _place_beads(values, g, disk_x, disk_r, rng):
+    """Random choice of FCC lattice sites in the free volume (homogeneous start, no overlaps).
+
+    Sites are d_max (+0.1 %) apart; of a few random lattice offsets the one with most free sites
+    is used.
+    """
+    r_max = 0.5 * values["bead_diameter_max"]
+    nn = 2 * r_max * 1.001
+    a = nn * math.sqrt(2)
+    R = g["chamber_radius"]
+    clear = 1.001 * r_max
+    lo_x = g["x_lo"] + (0.5 * nn if values["slice"] else clear)
+    hi_x = g["x_lo"] + g["length"] - (0.5 * nn if values["slice"] else clear)
+    cells = np.arange(-math.ceil(R / a) - 1, math.ceil(R / a) + 2)
+    cx = np.arange(0, math.ceil((hi_x - lo_x) / a) + 1)
+    base = np.array([[0, 0, 0], [0, 0.5, 0.5], [0.5, 0, 0.5], [0.5, 0.5, 0]])
+    I, J, K = np.meshgrid(cx, cells, cells, indexing="ij")
+    corner = np.column_stack([I.ravel(), J.ravel(), K.ravel()]).astype(float)
+    lattice = ((corner[:, None, :] + base[None]) * a).reshape(-1, 3)
+    tree = cKDTree(disk_x) if len(disk_x) else None
+    best = None
+    for trial in range(6):
+        shift = np.array([0.0, *rng.uniform(0, a, 2)]) if trial else np.zeros(3)
+        sites = lattice + shift
+        sites[:, 0] += lo_x
+        rho = np.hypot(sites[:, 1], sites[:, 2])
+        ok = (sites[:, 0] <= hi_x) & (rho <= R - clear) & (rho >= g["shaft_radius"] + clear)
+        sites = sites[ok]
+        if tree is not None:
+            d, _ = tree.query(sites)
+            sites = sites[d >= disk_r + clear]
+        if best is None or len(sites) > len(best):
+            best = sites
+    n = g["n_beads"]
+    if n > len(best):
+        raise ValueError(f"filling: {n} beads do not fit the start lattice ({len(best)} free sites); "
+                         f"lower filling or n_beads")
+    x = best[rng.choice(len(best), n, replace=False)]
+    d = rng.uniform(values["bead_diameter_min"], values["bead_diameter_max"], n)
+    return x, 0.5 * d
+
+
+def build(values):
+    """The Simulation of one case, and the geometry it was built from."""
+    rng = np.random.default_rng(values["seed"])
+    g = geometry(values)
+    disk_x, disk_r = _disk_particles(values, g)
+    bead_x, bead_r = _place_beads(values, g, disk_x, disk_r, rng)
+    omega = g["omega"]
+    # initial swirl about the axis (shortens the start-up transient)
+    v = values["initial_swirl"] * omega * np.cross(AXIS, bead_x * [0, 1, 1])
+    nb, nd = len(bead_r), len(disk_x)
+    x = np.vstack([bead_x, disk_x])
+    radius = np.concatenate([bead_r, np.full(nd, disk_r)])
+    vel = np.vstack([v, np.zeros((nd, 3))])
+    # agitator spheres spin with the body: their surfaces move rigidly (contact and lubrication)
+    w = np.vstack([np.zeros((nb, 3)), np.tile(omega * AXIS, (nd, 1))])
+    body = np.concatenate([np.full(nb, -1), np.zeros(nd)]).astype(np.int32)
+    material = ["bead"] * nb + ["agitator"] * nd
+    k_n = contact_stiffness(values)
+    inter = Interaction(restitution=values["restitution"], friction=values["friction"],
+                        normal_stiffness=k_n,
+                        tangential_stiffness_ratio=values["tangential_stiffness_ratio"])
+    table = MaterialTable([Material("bead", values["density"]), Material("agitator", 3800.0),
+                           Material("wall", 7800.0)], {"*": inter}, "linear_history")
+    wet = values["eta"] > 0
+    spec = physics_spec(wet, values["slice"])
+    walls = [dict(kind="cylinder_inner", point=(0, 0, 0), axis=AXIS, radius=g["chamber_radius"],
+                  material="wall"),
+             dict(kind="cylinder_outer", point=(0, 0, 0), axis=AXIS, radius=g["shaft_radius"],
+                  omega=omega, material="agitator")]
+    if not values["slice"]:
+        walls += [dict(kind="plane", point=(0, 0, 0), normal=(1, 0, 0), material="wall"),
+                  dict(kind="plane", point=(g["length"], 0, 0), normal=(-1, 0, 0), material="wall")]
+    periodic = dict(box_lo=(g["x_lo"], 0, 0), box_len=(g["length"], 0, 0)) if values["slice"] else {}
+    r_min = 0.5 * values["bead_diameter_min"]
+    sim = Simulation(spec, table, x=x, radius=radius, material=material, v=vel, w=w, body=body,
+                     walls=walls, bodies=[dict(kind="rotate", center=(0, 0, 0), axis=AXIS, rate=omega)],
+                     gravity=(0.0, 0.0, -G), skin=values["skin"], impact_speed=max(1.0, g["tip_speed"]),
+                     max_overlap=values["max_overlap"], v_max=max(50.0, 5 * g["tip_speed"]),
+                     seed=values["seed"], fluid=dict(eta=values["eta"], h_min=values["h_min"],
+                                                     h_max=values["h_max"]) if wet else None,
+                     **periodic)
+    m_min = values["density"] * 4 / 3 * math.pi * r_min**3
+    t_c, _ = linear_contact_time(k_n, 0.5 * m_min, 2 * _zeta(values) * math.sqrt(k_n / (0.5 * m_min)))
+    if values["dt"] > 0:
+        sim.set_time_step(values["dt"])
+    else:
+        lub = [b.recommended for b in sim.dt_report.bounds if "lubrication" in b.interaction.lower()]
+        dt = min([t_c / values["steps_per_contact"], sim.dt_report.limit, *lub])
+        sim.set_time_step(values["dt_factor"] * dt)
+    g.update(k_n=k_n, t_c=t_c, n_agitator_particles=nd, agitator_particle_radius=disk_r)
+    return sim, g
+
+
+def physics_spec(wet, periodic):
+    """The compiled variant: dry scenes (eta = 0) compile no lubrication code."""
+    return PhysicsSpec(dim=3, contact_law="linear_history", gravity=True, walls=True, bodies=True,
+                       periodic=periodic, lubrication=wet, energy_audit=True)
+
+
+def _zeta(values):
+    e = values["restitution"]
+    return 0.0 if e >= 1 else -math.log(e) / math.sqrt(math.pi**2 + math.log(e) ** 2)
+
+
+# ---- observables (plain numpy, between chunks) -----------------------------------------------
+
+def elastic_energy(sim, k_n, k_t):
+    """Energy stored in the contact springs [J]: (normal, tangential), pairs and walls."""
+    _, _, overlap = sim.contact_pairs()
+    normal = 0.5 * k_n * float((overlap**2).sum())
+    tangential = 0.5 * k_t * float((sim.contacts.state[:, 0:3] ** 2).sum())
+    tangential += 0.5 * k_t * float((sim.wall_hist[:, :, 0:3] ** 2).sum())
+    p = sim.particles
+    free = sim.free
+    for iw, wall in enumerate(sim.walls):
+        d = p.x[free] - wall[1:4]
+        r = p.radius[free]
+        if int(wall[0]) == PLANE:
+            xi = r - d @ wall[4:7]
+        else:
+            rho = np.linalg.norm(d - np.outer(d @ wall[4:7], wall[4:7]), axis=1)
+            xi = rho + r - wall[7] if int(wall[0]) == CYLINDER_INNER else wall[7] + r - rho
+            assert int(wall[0]) in (CYLINDER_INNER, CYLINDER_OUTER)
+        xi = xi[xi > 0]
+        normal += 0.5 * k_n * float((xi**2).sum())
+    return normal, tangential
+
+
+def mser5(series):
+    """Index where the steady state starts: MSER-5 truncation (White 1997) on batch means of 5.
+
+    Minimises the squared standard error of the mean of what is kept, truncating at most half.
+    """
+    x = np.asarray(series, dtype=float)
+    nb = len(x) // 5
+    if nb < 4:
+        return 0
+    b = x[: 5 * nb].reshape(nb, 5).mean(1)
+    best, arg = math.inf, 0
+    for d in range(nb // 2 + 1):
+        kept = b[d:]
+        val = kept.var() / len(kept)
+        if val < best:
+            best, arg = val, d
+    return 5 * arg
+
+
+def block_mean_ci(series, blocks, confidence=0.95):
+    """Mean of a time series and the Student-t half-width from ``blocks`` block means."""
+    x = np.asarray(series, dtype=float)
+    blocks = max(2, min(blocks, len(x)))
+    means = np.array([c.mean() for c in np.array_split(x, blocks)])
+    sem = means.std(ddof=1) / math.sqrt(blocks)
+    return float(x.mean()), float(stats.t.ppf(0.5 + confidence / 2, blocks - 1) * sem)
+
+
+class Recorder:
+    """Time series, collision counts and coarse-grained fields of one run."""
+
+    def __init__(self, values, sim, g):
+        self.v, self.g = values, g
+        self.shaft = 1  # wall index of the rotating shaft
+        self.series = {k: [] for k in ("time", "torque", "power", "kinetic_energy")}
+        self.last = self._drive(sim) + (sim.time,)
+        self.contacts = np.zeros(0, dtype=np.int64)
+        self.collisions = np.zeros(9)
+        self.window_time = 0.0
+        cells = values["cg_cells"]
+        R = g["chamber_radius"]
+        self.edges = np.linspace(-R, R, cells + 1)
+        self.cg = np.zeros((5, cells, cells))  # count, |v|, |w|, v_y, v_z
+        mid = len(g["disk_x"]) // 2
+        face = g["disk_x"][mid] + 0.5 * g["disk_thickness"]
+        self.slab = (face, face + 0.5 * (g["pitch"] - g["disk_thickness"]))
+
+    def _drive(self, sim):
+        """Cumulative angular impulse about x and work of agitator body + shaft (what they supply)."""
+        impulse = -(sim.body_impulse[0, 3] + sim.wall_impulse[self.shaft, 3])
+        return impulse, sim.body_work[0] + sim.wall_work[self.shaft]
+
+    def record(self, sim):
+        impulse, work = self._drive(sim)
+        span = sim.time - self.last[2]
+        self.series["time"].append(sim.time)
+        self.series["torque"].append((impulse - self.last[0]) / span)
+        self.series["power"].append((work - self.last[1]) / span)
+        self.series["kinetic_energy"].append(sim.kinetic_energy())
+        self.last = (impulse, work, sim.time)
+
+    def sample(self, sim, dt_sample):
+        """Collision detection (bead-bead pairs in contact now and not at the last sample)."""
+        p = sim.particles
+        i, j, _ = sim.contact_pairs()
+        beads = (p.body[i] < 0) & (p.body[j] < 0)
+        i, j = i[beads], j[beads]
+        key = i.astype(np.int64) * sim.n_particles + j
+        new = ~np.isin(key, self.contacts, assume_unique=True)
+        self.contacts = np.sort(key)
+        if new.any():
+            mid = 0.5 * (p.x[i[new]] + p.x[j[new]])
+            if self.v["slice"]:  # midpoint of a pair across the periodic end
+                L = self.g["length"]
+                dx = p.x[i[new], 0] - p.x[j[new], 0]
+                mid[:, 0] -= 0.5 * L * np.round(dx / L)
+                mid[:, 0] = self.g["x_lo"] + (mid[:, 0] - self.g["x_lo"]) % L
+            np.add.at(self.collisions, self.region(mid), 1)
+        self.window_time += dt_sample
+        free = sim.free
+        x, v, w = p.x[free], p.v[free], p.w[free]
+        inside = (x[:, 0] >= self.slab[0]) & (x[:, 0] < self.slab[1])
+        if self.v["slice"]:  # the mirror slab on the other side of the disk
+            inside |= (x[:, 0] <= -self.slab[0]) & (x[:, 0] > -self.slab[1])
+        iy = np.clip(np.digitize(x[inside, 1], self.edges) - 1, 0, len(self.edges) - 2)
+        iz = np.clip(np.digitize(x[inside, 2], self.edges) - 1, 0, len(self.edges) - 2)
+        for q, val in enumerate((np.ones(inside.sum()), np.linalg.norm(v[inside], axis=1),
+                                 np.linalg.norm(w[inside], axis=1), v[inside, 1], v[inside, 2])):
+            np.add.at(self.cg[q], (iz, iy), val)
+
+    def region(self, pts):
+        """Region index 0..8 = (radial ring 1-3, inner to outer) x (front, centre, back along x)."""
+        R2 = self.g["chamber_radius"] ** 2
+        rho2 = pts[:, 1] ** 2 + pts[:, 2] ** 2
+        ring = np.minimum((3 * rho2 / R2).astype(int), 2)  # equal-volume rings of the empty cylinder
+        third = np.clip(((pts[:, 0] - self.g["x_lo"]) / self.g["length"] * 3).astype(int), 0, 2)
+        return 3 * ring + third
+
+
+def energy_state(sim, k_n, k_t):
+    el_n, el_t = elastic_energy(sim, k_n, k_t)
+    shaft_work = sim.wall_work[1]
+    return dict(time=sim.time, work=float(sim.body_work[0] + shaft_work),
+                kinetic=sim.kinetic_energy(), potential=sim.potential_energy(), elastic_normal=el_n,
+                elastic_tangential=el_t, **sim.energy_audit())
+
+
+def energy_balance(a, b):
+    """Balance terms between two energy states [J] and the relative residual.
+
+    The audit's tangential terms are the full power of the tangential force (spring storage
+    included), so the stored tangential energy is already inside them; the "true" tangential
+    dissipation is audit - delta elastic_tangential (reported separately).
+    """
+    d = {k: b[k] - a[k] for k in a}
+    inn = d["work"]
+    out = d["kinetic"] + d["potential"] + d["elastic_normal"] + sum(d[k] for k in AUDIT)
+    return d, inn - out, (inn - out) / inn if inn else math.nan
+
+
+def typology(d):
+    """Dissipation split [J] into impact, torsion, shearing, rolling (docs/stirred_mill.md)."""
+    return np.array([d["contact_normal_damping"] + d["lubrication_normal"],
+                     0.0,  # the contact model has no twisting torque
+                     d["contact_tangential_translation"] + d["lubrication_tangential"],
+                     d["contact_tangential_rotation"]])
+
+
+def run(values, ctx):
+    t_wall = time.perf_counter()
+    sim, g = build(values)
+    k_n = g["k_n"]
+    k_t = k_n * values["tangential_stiffness_ratio"]
+    period = 60.0 / values["rpm"]
+    sample_steps = max(1, int(g["t_c"] / values["contact_samples_per_contact"] / sim.dt))
+    per_record = max(1, int(round(period / values["records_per_revolution"] / sim.dt / sample_steps)))
+    record_steps = per_record * sample_steps
+    total = int(round(values["revolutions"] * period / sim.dt / record_steps)) * record_steps
+    transient = int(round(values["transient_revolutions"] * period / sim.dt / record_steps)) * record_steps
+    rec = Recorder(values, sim, g)
+    ctx.snapshot(sim)
+    start = energy_state(sim, k_n, k_t)
+
+    def during_transient(s):
+        rec.record(s)
+        ctx.snapshot(s)
+
+    count = {"n": 0}
+
+    def during_window(s):
+        rec.sample(s, sample_steps * s.dt)
+        count["n"] += 1
+        if count["n"] % per_record == 0:
+            rec.record(s)
+
+    sim.run(transient, chunk=record_steps, observer=during_transient, progress=ctx.progress)
+    rec.sample(sim, 0.0)  # contacts at the window start (no collisions counted)
+    rec.collisions[:] = 0
+    rec.cg[:] = 0
+    rec.window_time = 0.0
+    window_start = energy_state(sim, k_n, k_t)
+    sim.run(total - transient, chunk=sample_steps, observer=during_window, progress=ctx.progress)
+    end = energy_state(sim, k_n, k_t)
+    ctx.snapshot(sim)
+
+    t = np.array(rec.series["time"])
+    power = np.array(rec.series["power"])
+    torque = np.array(rec.series["torque"])
+    k0 = mser5(power)
+    t_steady = float(t[k0] - (t[1] - t[0]) if k0 > 0 else 0.0)
+    use = t > max(t_steady, sim.time - (total - transient) * sim.dt) + 1e-12
+    p_mean, p_ci = block_mean_ci(power[use], values["ci_blocks"])
+    q_mean, q_ci = block_mean_ci(torque[use], values["ci_blocks"])
+    d, residual, rel = energy_balance(window_start, end)
+    _, _, rel_all = energy_balance(start, end)
+    span = end["time"] - window_start["time"]
+    typ = typology(d)
+    dissipated = typ.sum()
+    coll = rec.collisions
+    cg_n = rec.cg[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cg = rec.cg[1:] / np.where(cg_n > 0, cg_n, np.nan)
+
+    def var(dims, value, units, long_name):
+        return (dims, value, {"units": units, "long_name": long_name})
+
+    centres = 0.5 * (rec.edges[1:] + rec.edges[:-1])
+    coords = {
+        "time": var("time", t, "s", "simulated time (end of the record interval)"),
+        "typology": var("typology", np.array(TYPOLOGY), "1", "contact typology"),
+        "audit_term": var("audit_term", np.array(AUDIT), "1", "dissipation term of the engine audit"),
+        "region": var("region", np.array(REGIONS), "1",
+                      "region: radial ring 1 (inner) - 3 (outer) x F(ront)/C(entre)/B(ack) along x"),
+        "gy": var("gy", centres, "m", "coarse-graining cell centre y"),
+        "gz": var("gz", centres, "m", "coarse-graining cell centre z"),
+    }
+    data = {
+        "agitator_torque": var("time", torque, "N m", "torque the agitator (disks + shaft) supplies, "
+                               "record-interval mean"),
+        "agitator_power": var("time", power, "W", "net power the agitator supplies, record-interval mean"),
+        "kinetic_energy": var("time", np.array(rec.series["kinetic_energy"]), "J",
+                              "kinetic energy of the beads"),
+        "net_power": var((), p_mean, "W", "steady-state mean net power"),
+        "net_power_ci": var((), p_ci, "W", "95% half-width of the net power (block means)"),
+        "mean_torque": var((), q_mean, "N m", "steady-state mean agitator torque"),
+        "mean_torque_ci": var((), q_ci, "N m", "95% half-width of the torque (block means)"),
+        "steady_state_start": var((), t_steady, "s", "start of the steady state (MSER-5 on the power)"),
+        "statistics_start": var((), float(t[use][0] - (t[1] - t[0])), "s",
+                                "start of the averaging window: max(transient, steady-state start)"),
+        "steady_state_detected": var((), int(t_steady <= window_start["time"] + 1e-12), "1",
+                                     "1 if the detected steady state starts before the transient ends"),
+        "energy_in": var((), d["work"], "J", "work of agitator + shaft over the window"),
+        "delta_kinetic": var((), d["kinetic"], "J", "change of bead kinetic energy over the window"),
+        "delta_potential": var((), d["potential"], "J", "change of potential energy over the window"),
+        "delta_elastic_normal": var((), d["elastic_normal"], "J", "change of normal spring energy"),
+        "delta_elastic_tangential": var((), d["elastic_tangential"], "J",
+                                        "change of tangential spring energy (inside the audit terms)"),
+        "dissipation": var("audit_term", np.array([d[k] for k in AUDIT]), "J",
+                           "energy dissipated over the window, by audit term"),
+        "dissipation_power": var("audit_term", np.array([d[k] for k in AUDIT]) / span, "W",
+                                 "mean dissipated power over the window, by audit term"),
+        "energy_balance_residual": var((), residual, "J", "energy in - (changes + dissipation), window"),
+        "energy_balance_error": var((), rel, "1", "residual / energy in, steady window"),
+        "energy_balance_error_run": var((), rel_all, "1", "residual / energy in, whole run"),
+        "typology_energy": var("typology", typ, "J", "dissipated energy by contact typology, window"),
+        "typology_fraction": var("typology", typ / dissipated if dissipated > 0 else typ * np.nan, "1",
+                                 "fraction of the dissipated energy by contact typology"),
+        "collision_rate": var("region", coll / max(rec.window_time, 1e-300), "s-1",
+                              "new bead-bead contacts per second by region"),
+        "collision_frequency_relative": var("region", 100 * coll / max(coll.sum(), 1), "%",
+                                            "relative collision frequency by region"),
+        "cg_speed": var(("gz", "gy"), cg[0], "m s-1", "coarse-grained translational speed |v| on the slab"),
+        "cg_spin": var(("gz", "gy"), cg[1], "rad s-1", "coarse-grained rotational speed |w| on the slab"),
+        "cg_vy": var(("gz", "gy"), cg[2], "m s-1", "coarse-grained velocity y on the slab"),
+        "cg_vz": var(("gz", "gy"), cg[3], "m s-1", "coarse-grained velocity z on the slab"),
+        "cg_samples": var(("gz", "gy"), cg_n, "1", "bead samples per coarse-graining cell"),
+        "n_bead": var((), g["n_beads"], "1", "beads"),
+        "n_agitator_particles": var((), g["n_agitator_particles"], "1", "spheres forming the disks"),
+        "chamber_length": var((), g["chamber_length"], "m", "chamber length (from the void volume)"),
+        "domain_length": var((), g["length"], "m", "simulated axial length (slice or chamber)"),
+        "domain_void_volume": var((), g["void_volume"], "m3", "void volume of the simulated domain"),
+        "tip_speed": var((), g["tip_speed"], "m s-1", "disk tip speed"),
+        "angular_velocity": var((), g["omega"], "rad s-1", "agitator angular velocity"),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs["typology_definition"] = (
+        "impact = contact normal damping + lubrication normal; shearing = tangential force x centre "
+        "slip + lubrication tangential; rolling = tangential force x rotational slip; torsion = 0 "
+        "(no twisting torque in the model)")
+    ds.attrs["cg_slab_x"] = np.array(rec.slab)
+    return ds, RunInfo(seed=values["seed"], dt=sim.dt, steps=sim.step,
+                       wall_time_s=time.perf_counter() - t_wall,
+                       extra={"dt_limit": sim.dt_report.limit, "dt_binding": sim.dt_report.binding.interaction,
+                              "contact_time_s": g["t_c"], "normal_stiffness": k_n,
+                              "list_rebuilds": int(sim.counters[0]),
+                              "compute_seconds": sim.wall_seconds})
+
+
+register(Scene("stirred_mill", "wet horizontal stirred media mill, perforated-disk agitator, pairwise "
+               "lubrication: power draw, energy balance, typology (seed 004)", PARAMS, run, (_check,)))

@@ -1,0 +1,287 @@
+"""Stirred media mill (seed 004): lubrication in the full engine, energy balance, compiled physics,
+bad input, outputs. Every engine run here uses the scene's wet periodic variant (one compile)."""
+
+import json
+import math
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.integrate import solve_ivp
+
+from millsim.analysis.stirred_mill import (
+    calibrate_friction,
+    calibrate_viscosity,
+    predict,
+    read_reference,
+)
+from millsim.engine import Interaction, Material, MaterialTable, Simulation
+from millsim.io import read_case, write_case
+from millsim.scenes.base import RunContext, get_scene
+from millsim.scenes.stirred_mill import physics_spec
+
+SCENE = get_scene("stirred_mill")
+PI = math.pi
+
+
+# ------------------------------------------------------------------------------------------------
+# squeeze film in the full engine
+# ------------------------------------------------------------------------------------------------
+
+def test_squeeze_under_constant_force_in_the_full_engine():
+    """A free bead settles under gravity onto a fixed sphere of equal radius (a kinematic body
+    particle at rest, infinite mass), through the liquid, in the scene's compiled variant.
+
+    Relative motion along n (reduced mass m): m dv/dt = -X(h) v - F0 with F0 = m g and
+    X(h) = 6 pi eta a [a/(4h) + (9/40) ln(a/h)] (equal spheres, tests/test_lubrication.py). With
+    G(h) = 6 pi eta a [(a/4) ln h + (9/40)(h ln(a/h) + h)]:
+        (1) m v + G(h) + F0 t = m v0 + G(h0)         (exact first integral)
+        (2) t(h) = [G(h0) - G(h)] / F0 + inertial lag (overdamped analytic solution).
+    """
+    eta, a, rho, g = 1.0, 1e-3, 6000.0, 9.81
+    m = 4 / 3 * PI * a**3 * rho
+    F0 = m * g
+    h0, h_min = 0.1 * a, 0.001 * 2 * a
+    c = 6 * PI * eta * a
+
+    def X(h):
+        return c * (a / (4 * h) + 9 / 40 * math.log(a / h))
+
+    def G(h):
+        return c * (a / 4 * math.log(h) + 9 / 40 * (h * math.log(a / h) + h))
+
+    v0 = -F0 / X(h0)
+    table = MaterialTable([Material("bead", rho)], {"*": Interaction(normal_stiffness=1e3, friction=0.3)},
+                          "linear_history")
+    sim = Simulation(physics_spec(True, True), table, x=[[0, 0, 2 * a + h0], [0, 0, 0]], radius=[a, a],
+                     material="bead", v=[[0, 0, v0], [0, 0, 0]], body=[-1, 0],
+                     bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(1, 0, 0), rate=0.0)],
+                     gravity=(0, 0, -g), box_lo=(-0.01, 0, 0), box_len=(0.02, 0, 0),
+                     fluid=dict(eta=eta, h_min=0.001, h_max=0.05))
+    assert "lubrication" in sim.dt_report.binding.interaction
+    ts, hs, vs = [], [], []
+
+    def observe(s):
+        ts.append(s.time)
+        hs.append(s.particles.x[0, 2] - 2 * a)
+        vs.append(s.particles.v[0, 2])
+
+    h_end = 0.005 * a  # above the inner cutoff h_min = 0.002 a
+    t_end = (G(h0) - G(h_end)) / F0
+    sim.run(int(t_end / sim.dt), chunk=max(1, int(t_end / sim.dt / 50)), observer=observe, threads=1)
+    ts, hs, vs = map(np.array, (ts, hs, vs))
+    assert hs.min() > h_min
+    inv0 = m * v0 + G(h0)
+    tau0 = m / X(h0)  # inertial relaxation time at the start
+    for t, h, v in zip(ts, hs, vs):
+        assert abs(m * v + G(h) + F0 * t - inv0) <= 1e-4 * F0 * t_end  # (1)
+        if t > 5 * tau0:  # (2), past the start-up, with the gap shifted by its first-order lag
+            lag = m * (v0 + F0 / X(h)) / X(h)
+            assert abs(t - (G(h0) - G(h - lag)) / F0) <= 5e-3 * t_end
+    # the same trajectory from an accurate ODE solution with the same force law
+    sol = solve_ivp(lambda t, y: [y[1], (-X(y[0]) * y[1] - F0) / m], (0, ts[-1]), [h0, v0],
+                    method="Radau", rtol=1e-9, atol=[1e-13, 1e-10], dense_output=True)
+    np.testing.assert_allclose(hs, sol.sol(ts)[0], rtol=2e-3, atol=1e-3 * h_end)
+
+
+# ------------------------------------------------------------------------------------------------
+# a tiny stirred box: outputs and energy balance
+# ------------------------------------------------------------------------------------------------
+
+TINY = dict(scale=0.3, slice=True, n_beads=250, rpm=3000, eta=0.05, revolutions=1.5,
+            transient_revolutions=0.75, records_per_revolution=16, cg_cells=6, seed=3)
+
+
+@pytest.fixture(scope="module")
+def tiny_case(tmp_path_factory):
+    values = SCENE.resolve(TINY)
+    ds, info = SCENE.run(values, RunContext(progress=False))
+    path = tmp_path_factory.mktemp("stirred") / "case.nc"
+    write_case(path, ds, {"scene": "stirred_mill", "parameters": values, "seed": info.seed,
+                          "dt": info.dt, "steps": info.steps, "wall_time_s": info.wall_time_s,
+                          **info.extra})
+    return read_case(path)
+
+
+def test_tiny_scene_writes_the_outputs(tiny_case):
+    ds = tiny_case
+    for name in ("agitator_torque", "agitator_power", "net_power", "net_power_ci",
+                 "steady_state_start", "typology_fraction", "dissipation", "energy_balance_error",
+                 "collision_frequency_relative", "cg_speed", "cg_spin"):
+        assert name in ds and "units" in ds[name].attrs
+    assert ds.attrs["scene"] == "stirred_mill" and json.loads(ds.attrs["parameters_json"])["eta"] == 0.05
+    assert float(ds["net_power"]) > 0 and np.isfinite(float(ds["net_power_ci"]))
+    # power = torque x angular velocity, record by record: the power is the engine's work, the
+    # torque its angular impulse; both are taken at the same contact point, so they agree to
+    # rounding
+    np.testing.assert_allclose(ds["agitator_power"], ds["agitator_torque"] * float(ds["angular_velocity"]),
+                               rtol=1e-6, atol=1e-9 * float(abs(ds["agitator_power"]).max()))
+    assert list(ds["typology"].values) == ["impact", "torsion", "shearing", "rolling"]
+    assert float(ds["typology_fraction"].sum()) == pytest.approx(1.0)
+    assert float(ds["typology_fraction"].sel(typology="torsion")) == 0.0
+    assert float(ds["collision_frequency_relative"].sum()) == pytest.approx(100.0)
+    d = ds["dissipation"].to_series()
+    assert d["lubrication_normal"] > 0 and d["lubrication_tangential"] > 0
+
+
+def test_tiny_stirred_box_energy_balance_closes(tiny_case):
+    """work in = d(kinetic + potential + elastic) + dissipation, within 2 % (steady window and run)."""
+    ds = tiny_case
+    assert abs(float(ds["energy_balance_error"])) < 0.02
+    assert abs(float(ds["energy_balance_error_run"])) < 0.02
+    assert float(ds["energy_in"]) > 0
+
+
+# ------------------------------------------------------------------------------------------------
+# a dry scene compiles no lubrication code
+# ------------------------------------------------------------------------------------------------
+
+DRY_SCENE = textwrap.dedent("""
+    from millsim.engine import contact, lubrication
+    from millsim.scenes.base import get_scene
+    from millsim.scenes.stirred_mill import build
+    values = get_scene("stirred_mill").resolve(dict(scale=0.3, slice=True, n_beads=40, eta=0.0))
+    sim, _ = build(values)
+    assert not sim.spec.lubrication
+    sim.run(20, threads=1)
+    print(len(contact.linear_history.signatures), len(lubrication.pair_force_torque.signatures),
+          len(lubrication.wall_force_torque.signatures), len(lubrication.pair_resistances.signatures))
+""")
+
+
+def test_dry_scene_compiles_no_lubrication(tmp_path):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", DRY_SCENE], env=env, capture_output=True, text=True,
+                         check=True)
+    used, pair, wall, scalars = map(int, out.stdout.split())
+    assert used == 1 and pair == 0 and wall == 0 and scalars == 0
+
+
+# ------------------------------------------------------------------------------------------------
+# bad input, refused before any work
+# ------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("override,match", [
+    (dict(eta=-0.1), "eta"),
+    (dict(h_min=0.05, h_max=0.05), "h_min"),
+    (dict(h_min=0.06, h_max=0.05), "h_min"),
+    (dict(rpm=0), "rpm"),
+    (dict(rpm=-100), "rpm"),
+    (dict(filling=0.0), "filling"),
+    (dict(filling=0.74), "filling"),
+    (dict(filling=0.9), "filling"),
+])
+def test_bad_input_is_refused(override, match):
+    with pytest.raises(ValueError, match=match):
+        SCENE.resolve({k: str(v) for k, v in override.items()})
+
+
+def test_bad_config_is_refused_by_the_schema():
+    import yaml
+    from snakemake.exceptions import WorkflowError
+    from snakemake.utils import validate
+
+    root = os.path.join(os.path.dirname(__file__), "..")
+    schema = os.path.join(root, "workflow", "schemas", "config.schema.yaml")
+    with open(os.path.join(root, "config", "config.yaml")) as fh:
+        config = yaml.safe_load(fh)
+    validate(dict(config), schema)
+    for block, key, bad in (("power", "eta", [-0.1, 0.1]), ("power", "rpm", [0, 1000]),
+                            ("parameters", "filling", 0.8)):
+        broken = json.loads(json.dumps(config))
+        broken["stirred_mill"][block][key] = bad
+        with pytest.raises(WorkflowError):
+            validate(broken, schema)
+
+
+# ------------------------------------------------------------------------------------------------
+# calibration stages on synthetic tables
+# ------------------------------------------------------------------------------------------------
+
+def test_calibration_recovers_known_parameters(tmp_path):
+    """P = mu-dependent dry curve and eta-dependent wet power: stages 1-3 find the truth."""
+    rpms, mus, etas = [1000.0, 2000.0, 3000.0], [0.2, 0.3, 0.4], [0.01, 0.03, 0.1]
+
+    def power(mu, eta, rpm):
+        return rpm / 1000 * (1 + 2 * mu + 5 * eta)
+
+    cases = pd.DataFrame([dict(friction=mu, eta=e, rpm=r, net_power=power(mu, e, r), net_power_ci=0.0)
+                          for mu in mus for e in [0.0, *etas] for r in rpms])
+    ref_path = tmp_path / "ref.csv"
+    ref_path.write_text("rpm,fluid,eta_exp,net_power,source\n" + "".join(
+        f"{r},{f},{e},{power(0.3, e, r)},synthetic\n" for f, e in (("dry", 0.0), ("A", 0.03))
+        for r in rpms))
+    ref = read_reference(ref_path)
+    _, summary, choice = calibrate_friction(cases, ref)
+    assert choice["friction"] == 0.3 and summary["ssr"].min() == pytest.approx(0.0, abs=1e-20)
+    _, visc = calibrate_viscosity(cases, ref, 0.3, 2000.0)
+    assert visc["A"]["eta_sim"] == 0.03 and visc["A"]["eta_sim_refined"] == pytest.approx(0.03)
+    pred = predict(cases, ref, 0.3, {"A": 0.03})
+    assert np.abs(pred["residual"]).max() < 1e-12 and len(pred) == 6
+    bad = tmp_path / "bad.csv"
+    bad.write_text("rpm,fluid,net_power\n1000,dry,1\n")
+    with pytest.raises(ValueError, match="missing column"):
+        read_reference(bad)
+
+
+# ------------------------------------------------------------------------------------------------
+# the pipeline: the stirred-mill rules resolve, and bad input stops it before any job
+# ------------------------------------------------------------------------------------------------
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+
+
+def _pipeline(tmp_path, monkeypatch, stirred):
+    """Dry run of the real Snakefile with the quick ball mill and ``stirred`` as config."""
+    import shutil
+
+    import yaml
+    from snakemake import api
+    from snakemake.settings import types as settings
+
+    for name in ("Snakefile", "workflow", "config"):
+        src = os.path.join(ROOT, name)
+        (shutil.copytree if os.path.isdir(src) else shutil.copy)(src, tmp_path / name)
+    with open(tmp_path / "config" / "config.yaml") as fh:
+        config = yaml.safe_load(fh)
+    config["stirred_mill"] = stirred
+    (tmp_path / "config" / "config.yaml").write_text(yaml.safe_dump(config))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("PATH", os.environ["PATH"])
+    with api.SnakemakeApi(settings.OutputSettings(dryrun=True, quiet={settings.Quietness.ALL})) as sm:
+        wf = sm.workflow(resource_settings=settings.ResourceSettings(cores=2),
+                         snakefile=tmp_path / "Snakefile", workdir=tmp_path)
+        dag = wf.dag(settings.DAGSettings(targets={"results/plots/stirred_mill_power.png",
+                                                   "results/calibration/stirred_mill_friction.json"}))
+        dag.execute_workflow(executor="dryrun")
+
+
+def _stirred_config():
+    with open(os.path.join(ROOT, "config", "config.yaml")) as fh:
+        import yaml
+
+        return yaml.safe_load(fh)["stirred_mill"]
+
+
+def test_pipeline_resolves_the_stirred_mill_rules(tmp_path, monkeypatch):
+    _pipeline(tmp_path, monkeypatch, _stirred_config())
+    assert not (tmp_path / "results").exists()
+
+
+@pytest.mark.parametrize("block,key,value,named", [
+    ("power", "eta", [-0.1, 0.1], "eta"),
+    ("power", "rpm", [0, 2500], "rpm"),
+    ("parameters", "filling", 0.8, "filling"),
+    ("parameters", "h_min", 0.06, "h_min"),  # >= h_max = 0.05: the scene's check, still before any job
+])
+def test_pipeline_refuses_bad_stirred_input_before_any_job(tmp_path, monkeypatch, block, key, value,
+                                                           named):
+    stirred = _stirred_config()
+    stirred[block][key] = value
+    with pytest.raises(Exception, match=named):  # noqa: B017 (WorkflowError or the scene's ValueError)
+        _pipeline(tmp_path, monkeypatch, stirred)
+    assert not (tmp_path / "results").exists()

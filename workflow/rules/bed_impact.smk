@@ -1,0 +1,103 @@
+# Particle-bed impact (seed 002, Figs 20-23): a steel ball dropped on hexagonal beds of 5.5 mm
+# particles that break by the Tavares model. Every case is one `millsim run bed_impact`; the cases
+# of all `bed_impact.sweeps` blocks are stacked into results/aggregate/bed_breakage.nc.
+#
+# A case path names all five swept parameters, e.g.
+# results/cases/bed_impact/material~copper_ore/rings~1/layers~1/impact_energy~3.05/seed~1/case.nc
+
+
+localrules:
+    aggregate_bed_impact,
+    plot_bed_impact,
+
+
+BED_IMPACT_OVER = ["material", "rings", "layers", "impact_energy", "seed"]
+BED_IMPACT_PLOTS = ["broken_mass", "capture_radius", "size_energy", "size_configuration"]
+
+
+def bed_impact_study():
+    """Union of the Cartesian products of the `bed_impact.sweeps` blocks, each case checked by
+    the scene (fixed values: `bed_impact.parameters`)."""
+    block = config["bed_impact"]
+    fixed = dict(block.get("parameters") or {})
+    rows = []
+    for k, sweep in enumerate(block["sweeps"]):
+        values = {name: sweep[name] for name in BED_IMPACT_OVER}
+        grid = pd.MultiIndex.from_product(
+            [v if isinstance(v, list) else [v] for v in values.values()], names=BED_IMPACT_OVER
+        ).to_frame(index=False)
+        rows.append(grid)
+    grid = (
+        pd.concat(rows, ignore_index=True)
+        .astype({"rings": int, "layers": int, "seed": int, "impact_energy": float})
+        .drop_duplicates(ignore_index=True)
+    )
+    study = Study(Paramspace(grid), {k: str(v) for k, v in fixed.items()})
+    for row in grid.itertuples(index=False):
+        try:
+            get_scene("bed_impact").resolve(
+                {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
+            )
+        except ValueError as exc:
+            raise ValueError(f"config bed_impact: {exc}") from None
+    return study
+
+
+STUDIES["bed_impact"] = bed_impact_study()
+
+
+# Cached between workflows (`--cache`) like the ball-mill cases; wall time in the case file.
+rule simulate_bed_impact:
+    output:
+        case=case_file("bed_impact"),
+    log:
+        case_log("simulate_bed_impact", "bed_impact"),
+    cache: True
+    threads: 1
+    params:
+        sets=case_sets("bed_impact"),
+        engine=ENGINE,
+    shell:
+        "millsim run bed_impact {params.sets} --threads {threads} --out {output.case} > {log} 2>&1"
+
+
+rule aggregate_bed_impact:
+    input:
+        cases=case_files("bed_impact"),
+    output:
+        "results/aggregate/bed_breakage.nc",
+    log:
+        "results/logs/aggregate_bed_impact.log",
+    params:
+        over=" ".join(f"--over {k}" for k in BED_IMPACT_OVER),
+    shell:
+        "millsim aggregate bed_impact {input.cases} {params.over} --out {output} > {log} 2>&1"
+
+
+rule plot_bed_impact:
+    input:
+        "results/aggregate/bed_breakage.nc",
+    output:
+        report(
+            "results/plots/bed_{kind}.png",
+            caption="../report/bed_impact_plot.rst",
+            category="Bed impact 3D",
+            labels={"figure": "{kind}"},
+        ),
+    log:
+        "results/logs/plot_bed_impact/{kind}.log",
+    wildcard_constraints:
+        kind="|".join(BED_IMPACT_PLOTS),
+    shell:
+        "millsim plot bed_{wildcards.kind} {input} --out {output} > {log} 2>&1"
+
+
+def bed_impact_targets():
+    """What `rule all` asks of this scene."""
+    return [
+        "results/aggregate/bed_breakage.nc",
+        *(f"results/plots/bed_{kind}.png" for kind in BED_IMPACT_PLOTS),
+    ]
+
+
+SCENE_TARGETS.append(bed_impact_targets)

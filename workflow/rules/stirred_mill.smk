@@ -1,0 +1,224 @@
+# Stirred media mill with pairwise lubrication (seed 004): power vs speed x viscosity, and the
+# three-stage power-draw calibration (friction, viscosity, prediction) against
+# config/reference/stirred_mill_power.csv. Every case is one `millsim run stirred_mill`, cached;
+# the calibration stages are rules over those cases (stages 1 and 2 are checkpoints: the cases of
+# the next stage depend on the value they pick). Re-run only the calibration after replacing the
+# reference data:  snakemake --cores 2 -R stirred_mill_friction
+# (stages 2 and 3, the figures and any newly needed cases follow).
+
+import json
+
+import numpy as np
+
+STIRRED = config.get("stirred_mill")
+
+
+def _union(*lists):
+    out = []
+    for values in lists:
+        for v in values if isinstance(values, list) else [values]:
+            if not any(np.isclose(v, o) for o in out):
+                out.append(v)
+    return sorted(out)
+
+
+if STIRRED:
+    _SP, _CAL = STIRRED["power"], STIRRED["calibration"]
+    # one space of cases holds the power study and every calibration stage, so that shared
+    # (friction, eta, rpm) points are simulated once
+    STUDIES["stirred_mill"] = make_study(
+        "stirred_mill",
+        "stirred_mill",
+        {
+            **STIRRED["parameters"],
+            "friction": _union(_SP["friction"], _CAL["friction"]),
+            "eta": _union(_SP["eta"], 0.0, _CAL["eta"]),
+            "rpm": _union(_SP["rpm"], _CAL["rpm"], _CAL["eta_rpm"]),
+        },
+        ["friction", "eta", "rpm"],
+    )
+    STIRRED_REFERENCE = _CAL["reference"]
+
+
+def stirred_case(friction, eta, rpm):
+    """Case file of the point (friction, eta, rpm) of the stirred-mill space."""
+    space = STUDIES["stirred_mill"].space
+    df = space.dataframe
+    for pattern, row in zip(space.instance_patterns, df.itertuples(index=False)):
+        if (
+            np.isclose(row.friction, friction)
+            and np.isclose(row.eta, eta)
+            and np.isclose(row.rpm, rpm)
+        ):
+            return f"results/cases/stirred_mill/{pattern}/case.nc"
+    raise ValueError(f"stirred_mill: ({friction}, {eta}, {rpm}) is not in the case space")
+
+
+def stirred_power_cases():
+    return [
+        stirred_case(_SP["friction"], e, r)
+        for e in _SP["eta"]
+        for r in _SP["rpm"]
+    ]
+
+
+def stirred_stage1_cases():
+    return [stirred_case(mu, 0.0, r) for mu in _CAL["friction"] for r in _CAL["rpm"]]
+
+
+def stirred_stage2_cases(wildcards):
+    choice = checkpoints.stirred_mill_friction.get().output.choice
+    mu = json.load(open(choice))["friction"]
+    return [stirred_case(mu, e, _CAL["eta_rpm"]) for e in _CAL["eta"]]
+
+
+def stirred_stage3_cases(wildcards):
+    choice = json.load(open(checkpoints.stirred_mill_viscosity.get().output.choice))
+    mu = choice["friction"]
+    etas = [0.0] + [c["eta_sim"] for c in choice["fluids"].values()]
+    return sorted({stirred_case(mu, e, r) for e in etas for r in _CAL["rpm"]})
+
+
+STIRRED_PLOTS = ("power", "typology", "regions", "velocity")
+
+
+def stirred_mill_targets():
+    if not STIRRED:
+        return []
+    return [
+        "results/aggregate/stirred_mill.nc",
+        *(f"results/plots/stirred_mill_{k}.png" for k in STIRRED_PLOTS),
+        "results/plots/stirred_mill_friction.png",
+        "results/plots/stirred_mill_viscosity.png",
+        "results/plots/stirred_mill_prediction.png",
+        "results/calibration/stirred_mill_prediction.csv",
+    ]
+
+
+if STIRRED:
+
+    localrules:
+        aggregate_stirred_mill,
+        plot_stirred_mill,
+        stirred_mill_friction,
+        stirred_mill_viscosity,
+        stirred_mill_predict,
+        plot_stirred_mill_calibration,
+
+    # Cached between workflows (`--cache`); wall time and steps are in the case file.
+    rule simulate_stirred_mill:
+        output:
+            case=case_file("stirred_mill"),
+        log:
+            case_log("simulate_stirred_mill", "stirred_mill"),
+        cache: True
+        threads: 1
+        params:
+            sets=case_sets("stirred_mill"),
+            engine=ENGINE,
+        shell:
+            "millsim run stirred_mill {params.sets} --threads {threads} --out {output.case}"
+            " > {log} 2>&1"
+
+    rule aggregate_stirred_mill:
+        input:
+            cases=stirred_power_cases(),
+        output:
+            "results/aggregate/stirred_mill.nc",
+        log:
+            "results/logs/aggregate_stirred_mill.log",
+        shell:
+            "millsim aggregate stirred_mill {input.cases} --over eta --over rpm --out {output}"
+            " > {log} 2>&1"
+
+    rule plot_stirred_mill:
+        input:
+            "results/aggregate/stirred_mill.nc",
+        output:
+            report(
+                "results/plots/stirred_mill_{kind}.png",
+                caption="../report/stirred_mill_plot.rst",
+                category="Stirred mill",
+                labels={"figure": "{kind}"},
+            ),
+        log:
+            "results/logs/plot_stirred_mill/{kind}.log",
+        wildcard_constraints:
+            kind="|".join(STIRRED_PLOTS),
+        shell:
+            "python -m millsim.analysis.stirred_mill plot {wildcards.kind} {input}"
+            " --out {output} > {log} 2>&1"
+
+    checkpoint stirred_mill_friction:
+        input:
+            cases=stirred_stage1_cases(),
+            reference=STIRRED_REFERENCE,
+        output:
+            table="results/calibration/stirred_mill_friction.csv",
+            summary="results/calibration/stirred_mill_friction_ssr.csv",
+            choice="results/calibration/stirred_mill_friction.json",
+        log:
+            "results/logs/stirred_mill_friction.log",
+        shell:
+            "python -m millsim.analysis.stirred_mill friction {input.cases}"
+            " --reference {input.reference} --table {output.table}"
+            " --summary {output.summary} --choice {output.choice} > {log} 2>&1"
+
+    checkpoint stirred_mill_viscosity:
+        input:
+            cases=stirred_stage2_cases,
+            reference=STIRRED_REFERENCE,
+            friction="results/calibration/stirred_mill_friction.json",
+        output:
+            table="results/calibration/stirred_mill_viscosity.csv",
+            choice="results/calibration/stirred_mill_viscosity.json",
+        log:
+            "results/logs/stirred_mill_viscosity.log",
+        params:
+            rpm=_CAL["eta_rpm"] if STIRRED else 0,
+        shell:
+            "python -m millsim.analysis.stirred_mill viscosity {input.cases}"
+            " --reference {input.reference} --friction {input.friction} --rpm {params.rpm}"
+            " --table {output.table} --choice {output.choice} > {log} 2>&1"
+
+    rule stirred_mill_predict:
+        input:
+            cases=stirred_stage3_cases,
+            reference=STIRRED_REFERENCE,
+            viscosity="results/calibration/stirred_mill_viscosity.json",
+        output:
+            table="results/calibration/stirred_mill_prediction.csv",
+        log:
+            "results/logs/stirred_mill_predict.log",
+        shell:
+            "python -m millsim.analysis.stirred_mill predict {input.cases}"
+            " --reference {input.reference} --viscosity {input.viscosity}"
+            " --table {output.table} > {log} 2>&1"
+
+    rule plot_stirred_mill_calibration:
+        input:
+            lambda wc: {
+                "friction": [
+                    "results/calibration/stirred_mill_friction.csv",
+                    "results/calibration/stirred_mill_friction_ssr.csv",
+                ],
+                "viscosity": ["results/calibration/stirred_mill_viscosity.csv"],
+                "prediction": ["results/calibration/stirred_mill_prediction.csv"],
+            }[wc.stage],
+        output:
+            report(
+                "results/plots/stirred_mill_{stage}.png",
+                caption="../report/stirred_mill_calibration.rst",
+                category="Stirred mill",
+                labels={"figure": "calibration {stage}"},
+            ),
+        log:
+            "results/logs/plot_stirred_mill_calibration/{stage}.log",
+        wildcard_constraints:
+            stage="friction|viscosity|prediction",
+        shell:
+            "python -m millsim.analysis.stirred_mill plot {wildcards.stage} {input}"
+            " --out {output} > {log} 2>&1"
+
+
+SCENE_TARGETS.append(stirred_mill_targets)
