@@ -464,6 +464,17 @@ def test_stability_dt_closed_forms():
         stability_dt(1.0, 0.0, "euler")
 
 
+
+def _touching_pairs(pos, box, cut):
+    """(i, j, d, |d|) of the periodic pairs closer than ``cut`` (d = minimum image x_i - x_j)."""
+    for i in range(len(pos)):
+        for j in range(i + 1, len(pos)):
+            d = pos[i] - pos[j]
+            d -= box * np.round(d / box)
+            r = np.linalg.norm(d)
+            if r < cut:
+                yield i, j, d, r
+
 def test_fcc_bound_covers_the_full_model():
     """Periodic FCC of equal beads, every gap at h_min, full lubrication (squeeze, shear, B and C
     terms, rotations with I = 2/5 m a^2). The squeeze part alone has its largest rate at exactly
@@ -481,16 +492,11 @@ def test_fcc_bound_covers_the_full_model():
     N, box = len(pos), nc * lat
     R = np.zeros((6 * N, 6 * N))
     npairs = 0
-    for i in range(N):
-        for j in range(i + 1, N):
-            d = pos[i] - pos[j]
-            d -= box * np.round(d / box)
-            r = np.linalg.norm(d)
-            if r < 1.01 * s:
-                npairs += 1
-                B = pair_matrix(A, A, d / r, r - 2 * A, h_min, eta)
-                idx = np.r_[6 * i:6 * i + 6, 6 * j:6 * j + 6]
-                R[np.ix_(idx, idx)] += B
+    for i, j, d, r in _touching_pairs(pos, box, 1.01 * s):
+        npairs += 1
+        B = pair_matrix(A, A, d / r, r - 2 * A, h_min, eta)
+        idx = np.r_[6 * i:6 * i + 6, 6 * j:6 * j + 6]
+        R[np.ix_(idx, idx)] += B
     assert npairs == 6 * N
     w = 1 / np.sqrt(np.tile([m] * 3 + [inertia] * 3, N))
     lam = np.linalg.eigvalsh(w[:, None] * R * w[None, :]).max()
@@ -499,15 +505,10 @@ def test_fcc_bound_covers_the_full_model():
     assert lubrication_dt_limit(eta, h_min, A, m, 0.0, 0.0).lambda_c >= lam
     # squeeze only: exactly 8 X11A/m
     squeeze = np.zeros((3 * N, 3 * N))
-    for i in range(N):
-        for j in range(i + 1, N):
-            d = pos[i] - pos[j]
-            d -= box * np.round(d / box)
-            r = np.linalg.norm(d)
-            if r < 1.01 * s:
-                B = x11a * np.outer(d, d) / r**2
-                for p, q, sgn in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
-                    squeeze[3 * p:3 * p + 3, 3 * q:3 * q + 3] += sgn * B
+    for i, j, d, r in _touching_pairs(pos, box, 1.01 * s):
+        B = x11a * np.outer(d, d) / r**2
+        for p, q, sgn in ((i, i, 1), (j, j, 1), (i, j, -1), (j, i, -1)):
+            squeeze[3 * p:3 * p + 3, 3 * q:3 * q + 3] += sgn * B
     np.testing.assert_allclose(np.linalg.eigvalsh(squeeze / m).max(), 8 * x11a / m, rtol=1e-9)
 
 

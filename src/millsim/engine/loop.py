@@ -142,6 +142,16 @@ def _lubricate_pair(o, col_t, col_d, ri, rj, n0, n1, n2, h, v, w, i, j, fluid):
         o[col_d + 1] += Dt
 
 
+@njit(cache=True)
+def _room_for(rows, used, needed):
+    """``rows`` with room for ``needed`` rows (doubled when it is too small; ``used`` kept)."""
+    if needed <= rows.shape[0]:
+        return rows
+    grown = np.empty((2 * needed, rows.shape[1]))
+    grown[:used] = rows[:used]
+    return grown
+
+
 def build_chunk_runner(spec):
     """Compile (or load from cache) the chunk runner for a :class:`~millsim.engine.spec.PhysicsSpec`."""
     # Plain booleans (not comparisons with module attributes) so numba prunes the unused laws
@@ -709,12 +719,7 @@ def build_chunk_runner(spec):
                 needed = n_fractures[0]
                 for i in range(n):
                     needed += brk[i]
-                if needed > fractures.shape[0]:
-                    grown = np.empty((2 * needed, fractures.shape[1]))
-                    for q in range(n_fractures[0]):
-                        for c in range(fractures.shape[1]):
-                            grown[q, c] = fractures[q, c]
-                    fractures = grown
+                fractures = _room_for(fractures, n_fractures[0], needed)
                 for i in range(n):
                     if brk[i]:
                         row = fractures[n_fractures[0]]
@@ -730,12 +735,7 @@ def build_chunk_runner(spec):
                 needed = n_fractures[0]
                 for k in range(broke.shape[0]):
                     needed += (broke[k] & 1) + ((broke[k] >> 1) & 1)
-                if needed > fractures.shape[0]:
-                    grown = np.empty((2 * needed, fractures.shape[1]))
-                    for q in range(n_fractures[0]):
-                        for c in range(fractures.shape[1]):
-                            grown[q, c] = fractures[q, c]
-                    fractures = grown
+                fractures = _room_for(fractures, n_fractures[0], needed)
                 for i in range(n):
                     for k in range(start[i], start[i + 1]):
                         if broke[k] == 0:
