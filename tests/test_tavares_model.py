@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from scipy import integrate, special, stats
 
+from millsim.analysis.tavares_verification import (TABLE2_COUNTS, TABLE2_DUMMY, TABLE2_PROB,
+                                                    TABLE2_SIZES)
 from millsim.breakage import tavares as tv
 
 STEEL_K = 210e9 / (1.0 - 0.3**2)
@@ -248,13 +250,8 @@ def test_every_family_conserves_mass_exactly(n_classes):
             assert dd >= tab.edges[-1] * (1 - 1e-12)  # dummy spheres never below x_min
 
 
-# Seed 002 Table 2 (t10' = 3 %, Table 1 parameters): counts per relative size, then dummy.
-T2_SIZES = np.array([0.841, 0.707, 0.595, 0.500, 0.420, 0.354, 0.297, 0.250, 0.210])
-T2_COUNTS = np.array([[1, 1, 0, 0, 1, 1, 1], [0, 0, 2, 1, 0, 0, 0], [1, 0, 0, 2, 1, 1, 0],
-                      [0, 2, 1, 0, 0, 0, 2], [1, 0, 1, 1, 1, 1, 1], [1, 1, 0, 1, 1, 0, 0],
-                      [0, 1, 1, 2, 1, 2, 0], [1, 2, 0, 0, 0, 1, 2], [1, 1, 2, 0, 1, 1, 1]])
-T2_DUMMY = np.array([5, 5, 5, 6, 4, 5, 4])
-T2_PROB = np.array([34, 27, 23, 9, 5, 1, 1]) / 100.0
+# Seed 002 Table 2 (t10' = 3 %), kept once with the verification module.
+T2_SIZES, T2_COUNTS, T2_DUMMY, T2_PROB = TABLE2_SIZES, TABLE2_COUNTS, TABLE2_DUMMY, TABLE2_PROB
 
 
 def _table2_passing():

@@ -251,7 +251,18 @@ def build_chunk_runner(spec):
                         d2 = min_image(d2, 2, box_len)
                     rsum = radius[i] + radius[j]
                     dist2 = d0 * d0 + d1 * d1 + d2 * d2
-                    if dist2 >= rsum * rsum:
+                    apart = dist2 >= rsum * rsum
+                    # Fragments start deeply overlapped by construction: only the overlap beyond
+                    # their reference counts (it shrinks as they part); within it they are apart.
+                    xi_ref = 0.0
+                    if FRACTURE and not apart and state[k, C_TWIN] > 0.0:
+                        xi_ref = state[k, C_XIP]
+                    if TAVARES and not apart and state[k, C_REF] > 0.0:
+                        xi_ref = state[k, C_REF]
+                        xi_now = rsum - math.sqrt(dist2)
+                        state[k, C_REF] = min(xi_ref, xi_now)
+                        apart = xi_now <= xi_ref
+                    if apart:
                         if SPRING:
                             state[k, 0] = 0.0
                             state[k, 1] = 0.0
@@ -259,7 +270,8 @@ def build_chunk_runner(spec):
                         if TAVARES:
                             state[k, C_PREV] = 0.0
                             state[k, C_FPREV] = 0.0
-                            state[k, C_REF] = 0.0
+                            if dist2 >= rsum * rsum:
+                                state[k, C_REF] = 0.0
                         for a in range(SLOT):
                             out[k, a] = 0.0
                         if ROLLING:
@@ -268,7 +280,7 @@ def build_chunk_runner(spec):
                             dist = math.sqrt(dist2)
                             _lubricate_pair(out[k], C_LUB, COL_D, radius[i], radius[j], d0 / dist,
                                             d1 / dist, d2 / dist, dist - rsum, v, w, i, j, fluid)
-                        if FRACTURE:
+                        if FRACTURE:  # (Weibull twins are never "apart" while they overlap)
                             # The contact event ended: one fracture trial per body at its peak force.
                             fmax = state[k, C_FMAX]
                             flag = 0
@@ -294,26 +306,7 @@ def build_chunk_runner(spec):
                     n0, n1, n2 = d0 * inv, d1 * inv, d2 * inv
                     xi = rsum - dist
                     ri, rj = radius[i], radius[j]
-                    # Fragments start deeply overlapped by construction: only the overlap beyond
-                    # their reference counts, for the force and for the guard.
-                    xi_c = xi
-                    if FRACTURE and state[k, C_TWIN] > 0.0:
-                        xi_c = xi - state[k, C_XIP]
-                    if TAVARES and state[k, C_REF] > 0.0:
-                        xi_c = xi - state[k, C_REF]
-                        state[k, C_REF] = min(state[k, C_REF], xi)
-                        if xi_c <= 0.0:
-                            if SPRING:
-                                state[k, 0] = 0.0
-                                state[k, 1] = 0.0
-                                state[k, 2] = 0.0
-                            state[k, C_PREV] = 0.0
-                            state[k, C_FPREV] = 0.0
-                            for a in range(SLOT):
-                                out[k, a] = 0.0
-                            if ROLLING:
-                                proll[k, :, :] = 0.0
-                            continue
+                    xi_c = xi - xi_ref  # the overlap the force and the guard see
                     if xi_c > max_overlap * min(ri, rj) and err[0] == 0:
                         err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
                     # Relative velocity of i's contact point w.r.t. j's: dv - (ai wi + aj wj) x n,
