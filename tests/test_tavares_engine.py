@@ -161,3 +161,73 @@ def test_progeny_reaching_into_a_wall_feel_only_extra_overlap():
     sim.particles.x[0, 2] -= 0.01 * r
     sim.run(1, chunk=1)
     assert sim.particles.v[0, 2] > 0
+
+
+def test_break_at_end_reports_the_whole_event_once():
+    """A particle whose decision waits for the end of its stressing event is reported with the
+    whole loading work (the work-energy value, not the fracture energy it passed), once."""
+    v0 = 2.0
+    specific = 0.5 * v0**2 * K_STEEL / (K_ORE + K_STEEL)
+    sim = _impact(v0, 0.5 * specific)
+    sim.particles.break_at_end[0] = True
+    rows = []
+    sim.run(20000, chunk=500, on_fracture=lambda s: rows.extend(s.pop_fractures()))
+    assert len(rows) == 1
+    assert rows[0][1] == pytest.approx(specific, rel=2e-3)
+    assert sim.particles.e_acc[0] == 0.0
+    # the caller did nothing with the report: the fracture energy is untouched (no damage)
+    assert sim.particles.e_frac[0] == 0.5 * specific
+
+
+def test_resolved_unbreakable_particle_records_eq8_and_stays_whole():
+    """Below the global minimum size for a family a particle is not replaced: its first breaking
+    event's t10' (eq 8, whole-event energy) is recorded, then it never reports again."""
+    from millsim.breakage.replacement import TavaresReplacement
+    from millsim.breakage.tavares import is_breakable, load_materials, t10_prime
+
+    mats = load_materials(truncation="single_particle")
+    ore, steel = mats["copper_ore"], mats["steel"]
+    table = MaterialTable([Material("copper_ore", ore.density, ore.young, ore.poisson),
+                           Material("steel", steel.density, steel.young, steel.poisson)],
+                          {"*": Interaction(restitution=0.39, friction=0.5)})
+    r, v0 = 0.5e-3, 10.0
+    d_min = 0.5 * r  # 0.21 d < d_min: resolved unbreakable
+    assert not is_breakable(ore, 2 * r, d_min)
+    replace = TavaresReplacement({"copper_ore": ore}, d_min=d_min, seed=1)
+    sim = Simulation(SPEC, table, x=[[0, 0, 1.02 * r]], radius=[r], material="copper_ore",
+                     v=[[0, 0, -v0]], gravity=(0, 0, 0), impact_speed=v0,
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
+                     breakage={"copper_ore": (ore.gamma, 0.0)})
+    replace.assign_fracture_energies(sim, [0])
+    assert sim.particles.break_at_end[0]
+    sim.particles.e_frac[0] = 1.0  # J/kg: the impact (~40 J/kg absorbed) exceeds it
+    m0 = replace.resolved_mass(sim)
+    sim.run(20000, chunk=500, on_fracture=replace)
+    assert sim.n_particles == 1 and not replace.events
+    assert len(replace.records) == 1
+    rec = replace.records[0]
+    absorbed = 0.5 * v0**2 * mats["steel"].k / (ore.k + mats["steel"].k)
+    assert rec.specific_energy == pytest.approx(absorbed, rel=5e-3)
+    assert rec.t10 == pytest.approx(float(t10_prime(ore, rec.specific_energy, 1.0)))
+    assert sim.particles.t10_recorded[0] == rec.t10
+    assert np.isinf(sim.particles.e_frac[0])
+    assert replace.resolved_mass(sim) == m0
+
+
+def test_eq13_product_spreads_recorded_spheres_and_conserves_mass():
+    from millsim.breakage.replacement import product_passing
+    from millsim.breakage.tavares import load_materials, resolved_unbreakable_passing
+
+    ore = load_materials()["copper_ore"]
+    sizes = np.array([2e-3, 1e-3, 1e-3])
+    masses = np.array([3.0, 1.0, 2.0])
+    t10 = np.array([np.nan, 20.0, np.nan])  # only the middle one recorded a breaking event
+    sieves = np.array([0.1e-3, 0.5e-3, 1.5e-3, 3e-3])
+    eq13 = product_passing(sizes, masses, t10, ore, sieves)
+    kept = product_passing(sizes, masses, t10, ore, sieves, unbreakable="keep")
+    assert kept == pytest.approx([0.0, 0.0, 3.0, 6.0])
+    spread = resolved_unbreakable_passing(20.0, sieves / 1e-3, ore) / 100.0
+    assert eq13 == pytest.approx([spread[0], spread[1], 3.0, 6.0])
+    assert 0 < spread[0] < spread[1] < 1
+    with pytest.raises(ValueError, match="unbreakable"):
+        product_passing(sizes, masses, t10, ore, sieves, unbreakable="drop")

@@ -324,7 +324,7 @@ def aggregate(paths):
     frag = [(p, ds) for _, ds, p in cases
             if p["mode"] in ("single", "drop_weight") and "product_passing" in ds]
     if frag:
-        keys = sorted({(p["material"], p["mode"], float(p["diameter"])) for p, _ in frag})
+        keys = sorted({_frag_key(p) for p, _ in frag})
         fr = sorted({float(ds["energy_ratio"]) for _, ds in frag})
         sieves = frag[0][1]["sieve"].values
         shape = (len(keys), len(fr))
@@ -334,7 +334,7 @@ def aggregate(paths):
         psd = np.full(shape + (len(sieves),), np.nan)
         psd_model = np.full(shape + (len(sieves),), np.nan)
         for p, ds in frag:
-            ix = (keys.index((p["material"], p["mode"], float(p["diameter"]))),
+            ix = (keys.index(_frag_key(p)),
                   fr.index(float(ds["energy_ratio"])))
             arr["t10"][ix] = float(ds["product_t10"])
             arr["t10_lo"][ix] = float(ds["product_t10_ci_lo"])
@@ -346,7 +346,7 @@ def aggregate(paths):
             arr["broken"][ix] = float(ds["n_broken"])
             psd[ix] = ds["product_passing"].values
             psd_model[ix] = ds["product_passing_model"].values
-        coords.update(frag_case=("frag_case", [f"{m}/{mo}/{d * 1e3:g}mm" for m, mo, d in keys]),
+        coords.update(frag_case=("frag_case", [_frag_label(k) for k in keys]),
                       frag_ratio=("frag_ratio", np.array(fr), {"units": "1",
                                   "long_name": "input specific energy / median E50 (stressing basis)"}),
                       sieve=("sieve", sieves, {"units": "1", "long_name": "sieve size / initial diameter"}))
@@ -368,8 +368,8 @@ def aggregate(paths):
                           (arr["t10_model"] >= arr["t10_lo"]) & (arr["t10_model"] <= arr["t10_hi"]), np.nan)
         out["t10_inside"] = (("frag_case", "frag_ratio"), inside,
                              {"units": "1", "long_name": "eq 7 inside the 95% bootstrap interval"})
-        rule = {f"{m}/{mo}/{d * 1e3:g}mm": dict(zip(("inside", "pass"), pass_rule(inside[i])))
-                for i, (m, mo, d) in enumerate(keys)}
+        rule = {_frag_label(k): dict(zip(("inside", "pass"), pass_rule(inside[i])))
+                for i, k in enumerate(keys)}
         attrs["pass_rule_t10"] = json.dumps(rule)
 
     sieves, seed, ours, target = table2_comparison()
@@ -381,6 +381,16 @@ def aggregate(paths):
         if len(c) == 2:
             coords[name] = (c[0], c[1], {"units": "1"})
     return xr.Dataset(out, coords=coords, attrs=attrs)
+
+
+def _frag_key(p):
+    # cases written before `breakage_at` existed broke at first reach
+    return (p["material"], p["mode"], float(p["diameter"]), p.get("breakage_at", "first_reach"))
+
+
+def _frag_label(key):
+    m, mo, d, at = key
+    return f"{m}/{mo}/{d * 1e3:g}mm/{at}"
 
 
 def summary(ds):

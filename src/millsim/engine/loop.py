@@ -200,7 +200,7 @@ def build_chunk_runner(spec):
         x, v, w, acc, alpha = P.x, P.v, P.w, P.acc, P.alpha
         radius, inv_mass, inv_inertia = P.radius, P.inv_mass, P.inv_inertia
         material, body, x_ref, x_body0, gear = P.material, P.body, P.x_ref, P.x_body0, P.gear
-        fn_sum, e_acc, e_frac = P.fn_sum, P.e_acc, P.e_frac
+        fn_sum, e_acc, e_frac, break_at_end = P.fn_sum, P.e_acc, P.e_frac, P.break_at_end
         start, nbr, state, rev_start, rev_slot = C.start, C.nbr, C.state, C.rev_start, C.rev_slot
         n_walls = walls.shape[0]
         n_blocks = (n + BLOCK - 1) // BLOCK
@@ -615,21 +615,27 @@ def build_chunk_runner(spec):
                     if TAVARES and body[i] < 0:
                         # Stressing event: absorbed energy summed over contacts (eq 14). Break as
                         # soon as it reaches the fracture energy; when no contact loads any more
-                        # the event ends and an unbroken particle is damaged (eqs 5-6).
+                        # the event ends and an unbroken particle is damaged (eqs 5-6). With
+                        # break_at_end the decision waits for the end of the event and uses its
+                        # whole energy (what the handler does with it is its business).
                         brk[i] = 0
                         if EA > 0.0:
                             e_acc[i] += EA
-                            if e_acc[i] * inv_mass[i] >= e_frac[i]:
+                            if e_acc[i] * inv_mass[i] >= e_frac[i] and not break_at_end[i]:
                                 brk[i] = 1
                                 brk_dir[i, 0], brk_dir[i, 1], brk_dir[i, 2] = D0, D1, D2
                                 stop[0] = 1
                         elif e_acc[i] > 0.0:
                             specific = e_acc[i] * inv_mass[i]
                             mt = material[i]
-                            if specific >= breakage[mt, 2]:
-                                e_frac[i] *= 1.0 - damage_fraction(specific / e_frac[i],
-                                                                   breakage[mt, 1])
-                            e_acc[i] = 0.0
+                            if break_at_end[i] and specific >= e_frac[i]:
+                                brk[i] = 1
+                                stop[0] = 1
+                            else:
+                                if specific >= breakage[mt, 2]:
+                                    e_frac[i] *= 1.0 - damage_fraction(specific / e_frac[i],
+                                                                       breakage[mt, 1])
+                                e_acc[i] = 0.0
                     if body[i] < 0:
                         a0 = F0 * inv_mass[i]
                         a1 = F1 * inv_mass[i]
@@ -668,6 +674,25 @@ def build_chunk_runner(spec):
                     if dx0 * dx0 + dx1 * dx1 + dx2 * dx2 > half_skin2:
                         rebuild[0] = 1
 
+            if TAVARES and stop[0] != 0 and not last:
+                # A particle broke in pass 2, after ``last`` was decided, so every particle has
+                # already started the next step (Verlet drift / Gear predictor, bodies moved on).
+                # Take that back: the chunk ends at the step boundary like any other, with
+                # positions and velocities at t + dt, and the next chunk starts the step again.
+                # (Without this each breakage advanced every particle by one extra drift and
+                # handed the handler predicted velocities v + dt a: an energy error per event.)
+                for i in prange(n):
+                    if body[i] < 0:
+                        if GEAR:
+                            _gear_predict(i, -dt, x, v, w, acc, alpha, gear)
+                        else:
+                            _verlet_drift(i, -dt, x, v, w, acc, alpha)
+                    elif BODIES:
+                        p0, p1, p2, u0, u1, u2 = body_pose(bodies[body[i]], x_body0[i],
+                                                           t + (step + 1) * dt)
+                        x[i, 0], x[i, 1], x[i, 2] = p0, p1, p2
+                        v[i, 0], v[i, 1], v[i, 2] = u0, u1, u2
+
             # ---- serial: loads on bodies and walls, list rebuild ------------------------------
             if BODIES:
                 body_load[:, :] = 0.0
@@ -695,10 +720,22 @@ def build_chunk_runner(spec):
                         power = -(body_load[b, 0] * a0 + body_load[b, 1] * a1 + body_load[b, 2] * a2) * rate
                     body_work[b] += power * dt
             if AUDIT:
-                for blk in range(n_blocks):
-                    for a in range(N_AUDIT):
-                        dissipation[a] += audit_part[blk, a] * dt
+                # Trapezoidal in time: the powers are evaluated at the end of each step, so a
+                # plain sum (right-endpoint rule) runs half a step of dissipation ahead of the
+                # state, an O(dt) error wherever the audit is read mid-contact (it cancels only
+                # once the contacts have ended). dissipation[N_AUDIT:] keeps the last step's
+                # powers; NaN (start, particles added or removed) means unknown, and that step
+                # uses its own power.
+                for a in range(N_AUDIT):
+                    power = 0.0
+                    for blk in range(n_blocks):
+                        power += audit_part[blk, a]
                         audit_part[blk, a] = 0.0
+                    prev = dissipation[N_AUDIT + a]
+                    if prev != prev:
+                        prev = power
+                    dissipation[a] += 0.5 * (prev + power) * dt
+                    dissipation[N_AUDIT + a] = power
             if WALLS:
                 for iw in range(n_walls):
                     for blk in range(n_blocks):
@@ -722,6 +759,8 @@ def build_chunk_runner(spec):
                         row[3], row[4], row[5] = brk_dir[i, 0], brk_dir[i, 1], brk_dir[i, 2]
                         n_fractures[0] += 1
                         brk[i] = 0
+                        if break_at_end[i]:
+                            e_acc[i] = 0.0  # the event has ended: reported once
             if FRACTURE and stop[0] != 0:
                 # Collect this step's fracture decisions in slot order (deterministic); the buffer
                 # grows so that no decision is ever dropped.

@@ -12,7 +12,7 @@ import numpy as np
 ParticleArrays = namedtuple(
     "ParticleArrays",
     ["x", "v", "w", "acc", "alpha", "radius", "inv_mass", "inv_inertia", "material", "body",
-     "x_ref", "x_body0", "gear", "fn_sum", "e_acc", "e_frac"],
+     "x_ref", "x_body0", "gear", "fn_sum", "e_acc", "e_frac", "break_at_end", "t10_recorded"],
 )
 ContactList = namedtuple("ContactList", ["start", "nbr", "state", "rev_start", "rev_slot"])
 
@@ -50,6 +50,10 @@ def allocate(x, v, w, radius, inv_mass, inv_inertia, material, body, x_body0, ge
         # Tavares breakage: energy absorbed in the current stressing event [J] and the current
         # (damaged) specific fracture energy [J/kg]; inf = never breaks.
         e_acc=np.zeros(n), e_frac=np.full(n, np.inf),
+        # Tavares breakage decided at the end of the stressing event with its whole energy
+        # instead of when the energy first reaches E; the t10' [%] recorded for a
+        # resolved-unbreakable particle's first breaking event (seed 002 section 2.3; NaN: none).
+        break_at_end=np.zeros(n, dtype=np.bool_), t10_recorded=np.full(n, np.nan),
     )
 
 

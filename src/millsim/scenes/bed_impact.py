@@ -40,7 +40,8 @@ import xarray as xr
 
 from ..analysis import bed_impact as _analysis  # noqa: F401 (registers the aggregate summary)
 from ..breakage import tavares
-from ..breakage.replacement import TavaresReplacement
+from ..breakage.replacement import BREAKAGE_AT, TavaresReplacement
+from ..breakage.replacement import product_passing as replacement_passing
 from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
 from .base import Param, RunInfo, Scene, register
 
@@ -71,6 +72,9 @@ PARAMS = (
     Param("ball_gap", 2e-4, "initial gap between ball and bed top", "m", 0.0, lo_open=True),
     Param("particle_steel_rolling_friction", 0.01,
           "rolling friction particle-steel (Table 6: 0.01; the seed's sensitivity run: 0.33)", "1", 0.0),
+    Param("breakage_at", "first_reach", "when a particle breaks: first_reach (absorbed energy of the "
+          "event reaches E) or end_of_loading (when the event ends, t10' from its whole energy)",
+          choices=BREAKAGE_AT),
     Param("dummy_as", "spheres", "dummy class of the families: spheres (seed 002) or unresolved fines",
           choices=("spheres", "fines")),
     Param("d_min_ratio", 0.05, "global minimum progeny size / particle diameter (seed: 1/20)", "1",
@@ -187,11 +191,10 @@ class _Tracker:
         self.event_rows = []  # per event: time, x, y, z, radial, generation, origin, ...
 
     def __call__(self, sim):
-        n_fr = int(sim.n_fractures[0])
-        parents = sim.fractures[:n_fr, 0].astype(int).copy()
         before = len(self.replace.events)
         ball_xy = sim.particles.x[0, :2].copy()
         self.replace(sim)
+        parents = self.replace.last_broken
         new_events = self.replace.events[before:]
         broken = np.zeros(len(self.origin), dtype=bool)
         broken[parents] = True
@@ -238,13 +241,12 @@ EVENT_FIELDS = (
 )
 
 
-def product_passing(sizes, masses, dummy, dummy_t10, events, mat, sieves=SIEVES):
-    """Mass [kg] passing each sieve: resolved spheres by size; dummy spheres and unresolved fines
-    spread below their size by eq 11 (B = (x/x_dummy)^lambda, lambda from eq 12 at their t10')."""
-    passing = np.zeros(len(sieves))
+def product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat, sieves=SIEVES):
+    """Mass [kg] passing each sieve: resolved spheres by size, resolved-unbreakable ones that
+    recorded a breaking event by eq 13; dummy spheres and unresolved fines spread below their size
+    by eq 11 (B = (x/x_dummy)^lambda, lambda from eq 12 at their t10')."""
     res = ~dummy
-    for k, s in enumerate(sieves):
-        passing[k] = masses[res][sizes[res] < s].sum()
+    passing = replacement_passing(sizes[res], masses[res], t10_recorded[res], mat, sieves)
     for d, m, t10 in zip(sizes[dummy], masses[dummy], dummy_t10[dummy]):
         # x relative to the parent: the dummy is x_min of its parent
         parent = d / X_MIN
@@ -306,7 +308,7 @@ def run(values, ctx):
                      breakage={name: (mat.gamma, mat.e_min)}, smallest_radius=0.5 * d_min,
                      dt=values["dt"] or None)
     replace = TavaresReplacement({name: mat}, d_min=d_min, seed=values["seed"],
-                                 dummy_as=values["dummy_as"])
+                                 dummy_as=values["dummy_as"], breakage_at=values["breakage_at"])
     replace.assign_fracture_energies(sim, np.arange(1, n_bed + 1))
     tracker = _Tracker(replace, mat, n_bed + 1, values)
     bed_mass0 = replace.resolved_mass(sim)
@@ -391,8 +393,9 @@ def run(values, ctx):
     events = tracker.event_rows
     fines = replace.fines_mass
     total = float(masses.sum() + fines)
-    passing = product_passing(sizes, masses, dummy, dummy_t10, events, mat)
-    passing_total = product_passing(sizes, masses, dummy, dummy_t10, events, mat,
+    t10_recorded = q.t10_recorded[bed]
+    passing = product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat)
+    passing_total = product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat,
                                     np.array([BROKEN_SIEVE]))[0]
     broken_mass = float(passing_total)
     gen0 = [row for row in events if row[5] == 0]
@@ -429,6 +432,10 @@ def run(values, ctx):
                            "largest distance from the ball's axis of a particle the ball touched (recorded cadence)"),
         "broken_particles": (broken_originals, "1", "original bed particles that broke"),
         "breakage_events": (len(events), "1", "breakage events (all generations)"),
+        "unbreakable_records": (len(replace.records), "1",
+                                "resolved-unbreakable particles that reached their fracture energy (eq 13 applied)"),
+        "unbreakable_recorded_mass": (float(masses[np.isfinite(t10_recorded)].sum()), "kg",
+                                      "their mass, spread by eq 13 in the product distribution"),
         "fines_mass": (fines, "kg", "unresolved fines (dummy_as = fines)"),
         "dummy_mass": (float(masses[dummy].sum()), "kg", "mass of the dummy spheres (fines below x_min of their parent)"),
         "mass_balance_error": (total - bed_mass0, "kg", "resolved + fines - initial bed mass"),

@@ -58,7 +58,7 @@ import xarray as xr
 
 from ..analysis import tavares_verification as tv
 from ..breakage import tavares
-from ..breakage.replacement import TavaresReplacement
+from ..breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
 from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
 from ..engine.materials import effective_moduli
 from ..engine.timestep import hertz_contact_time
@@ -84,6 +84,9 @@ PARAMS = (
     Param("gamma", 0.0, "damage coefficient of eq 6; 0 = the material's (Table 4)", "1", 0.0),
     Param("truncation", "single_particle", "Emax/E50 of config/materials.yaml: single_particle "
           "(4, seed 002 verification) or bed (100)", choices=("single_particle", "bed")),
+    Param("breakage_at", "first_reach", "when a particle breaks: first_reach (absorbed energy of the "
+          "event reaches E) or end_of_loading (when the event ends, t10' from its whole energy)",
+          choices=BREAKAGE_AT),
     Param("replacement", True, "replace broken particles by progeny families (single and "
           "drop_weight); false: count and remove them"),
     Param("restitution", 0.39, "particle-steel restitution (Table 6)", "1", 0.0, 1.0, lo_open=True),
@@ -212,30 +215,33 @@ class Books:
 
     def on_fracture(self, sim):
         s = self.s
-        n_rows = int(sim.n_fractures[0])
-        rows = sim.fractures[:n_rows].copy()
-        idx = rows[:, 0].astype(np.int64)
-        parents, gens = s.ids[idx], s.gen[idx]
-        e_frac = sim.particles.e_frac[idx].copy()
-        keep = np.ones(sim.n_particles, bool)
-        keep[idx] = False
+        e_frac = sim.particles.e_frac.copy()
         if self.replace is None:
             # counted only: the particle stays as an unbreakable stand-in for its fragments
             # (removing it could leave no free particle at all) and is retired from the books
-            sim.pop_fractures()
-            sim.particles.e_frac[idx] = np.inf
-            s.gen[idx] = -1
-            for row, pid, g, e in zip(rows, parents, gens, e_frac):
-                t10 = float(tavares.t10_prime(s.mat, row[1], e))
-                self.events.append((sim.time, pid, g, s.values["diameter"], row[1], e, t10, -1, 0, 0.0))
+            rows = sim.pop_fractures()
+            broke = np.array([r[0] for r in rows], np.int64)
+            specific = np.array([r[1] for r in rows])
+            t10 = tavares.t10_prime(s.mat, specific, e_frac[broke])
+            parents, gens = s.ids[broke], s.gen[broke]
+            sim.particles.e_frac[broke] = np.inf
+            s.gen[broke] = -1
+            for pid, g, e, E, t in zip(parents, gens, specific, e_frac[broke], t10):
+                self.events.append((sim.time, pid, g, s.values["diameter"], e, E, t, -1, 0, 0.0))
         else:
             k0 = len(self.replace.events)
             self.replace(sim)
             new = self.replace.events[k0:]
+            broke = self.replace.last_broken
+            specific = np.array([ev.specific_energy for ev in new])
+            t10 = np.array([ev.t10 for ev in new])
+            parents, gens = s.ids[broke], s.gen[broke]
             counts = np.array([ev.progeny for ev in new], np.int64)
             for ev, pid, g in zip(new, parents, gens):
                 self.events.append((ev.time, pid, g, ev.parent_diameter, ev.specific_energy,
                                     ev.fracture_energy, ev.t10, ev.family, ev.progeny, ev.fines_mass))
+            keep = np.ones(len(s.ids), bool)
+            keep[broke] = False
             s.ids = np.concatenate([s.ids[keep], np.repeat(parents, counts)])
             s.gen = np.concatenate([s.gen[keep], np.repeat(gens + 1, counts)])
             limit = s.values["dt_factor"] * sim.dt_report.recommended
@@ -244,9 +250,9 @@ class Books:
         for j, (pid, g) in enumerate(zip(parents, gens)):
             if g == 0 and pid >= 0 and self.broken_at[pid] == 0:
                 self.broken_at[pid] = self.impact
-                self.absorbed[pid] = rows[j, 1]
-                self.e_break[pid] = e_frac[j]
-                self.t10_primary[pid] = self.events[-len(idx) + j][6]
+                self.absorbed[pid] = specific[j]
+                self.e_break[pid] = e_frac[broke[j]]
+                self.t10_primary[pid] = t10[j]
 
 
 def _quiet(sim, v_tol):
@@ -306,9 +312,11 @@ def absorbed_from_damage(e_before, e_after, gamma):
     return r * np.asarray(e_before, float)
 
 
-def _product(s: Setup, books: Books, sieves):
-    """Cumulative % passing ``sieves`` (x/d0) of each original's product (fines of each event
-    spread below x_min by eq 11 with the event's t10'), and the worst relative mass balance."""
+def _product(s: Setup, books: Books, sieves, unbreakable="eq13"):
+    """Cumulative % passing ``sieves`` (x/d0) of each original's product and the worst relative
+    mass balance. Fines of each event are spread below x_min by eq 11 with the event's t10';
+    resolved-unbreakable spheres that recorded a breaking event by eq 13 (``unbreakable="eq13"``,
+    seed 002 Fig 14) or kept at their size (``"keep"``, Fig 13)."""
     sim, n, d0 = s.sim, s.values["n_particles"], s.values["diameter"]
     p = sim.particles
     m0 = s.mass
@@ -316,10 +324,12 @@ def _product(s: Setup, books: Books, sieves):
     d = 2.0 * p.radius[mine]
     mass = s.mat.density * math.pi / 6.0 * d**3
     owner = s.ids[mine]
+    t10_recorded = p.t10_recorded[mine]
     per = np.zeros((n, len(sieves)))
-    for k, x in enumerate(sieves):
-        sel = d < x * d0 * (1 - 1e-9)
-        per[:, k] = np.bincount(owner[sel], weights=mass[sel], minlength=n)
+    for pid in np.unique(owner):
+        own = owner == pid
+        per[pid] = product_passing(d[own], mass[own], t10_recorded[own], s.mat, sieves * d0,
+                                   unbreakable)
     fines_total = np.zeros(n)
     for ev in books.events:
         fines = ev[9]
@@ -340,7 +350,8 @@ def run(values, ctx):
     mode = values["mode"]
     replacing = values["replacement"] and mode != "repeated"
     replace = TavaresReplacement({s.mat.name: s.mat}, d_min=tavares.global_min_size(values["diameter"]),
-                                 seed=s.case_seed, dummy_as="fines")
+                                 seed=s.case_seed, dummy_as="fines",
+                                 breakage_at=values["breakage_at"])
     originals = np.flatnonzero(s.ids >= 0)
     replace.assign_fracture_energies(sim, originals)
     e_initial = sim.particles.e_frac[originals].copy()
@@ -435,13 +446,18 @@ def run(values, ctx):
         t10_each = np.where(broken, per[:, -1], np.nan)
         per = per[:, :-1]
         passing = per[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
+        kept, _ = _product(s, books, SIEVES, unbreakable="keep")
+        passing_kept = kept[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
+        recorded = np.isfinite(p.t10_recorded) & (s.ids >= 0)
         t10_pool = float(np.nanmean(t10_each)) if nb else math.nan
         blo, bhi = tv.bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
         coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
         data.update(
             particle_product_t10=("particle", t10_each, {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
             particle_progeny=("particle", np.bincount(s.ids[s.ids >= 0], minlength=n), {"units": "1", "long_name": "resolved spheres it ended as"}),
-            product_passing=("sieve", passing, {"units": "%", "long_name": "cumulative % passing of the broken particles' product (fines included)"}),
+            product_passing=("sieve", passing, {"units": "%", "long_name": "cumulative % passing of the broken particles' product (fines included, resolved-unbreakable spheres by eq 13)"}),
+            product_passing_spheres=("sieve", passing_kept, {"units": "%", "long_name": "the same with resolved-unbreakable spheres kept at their size (seed 002 Fig 13)"}),
+            unbreakable_records=((), int(recorded.sum()), {"units": "1", "long_name": "resolved-unbreakable spheres that reached their fracture energy (eq 13 applied)"}),
             product_passing_model=("sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
                                    {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
             product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
