@@ -68,6 +68,28 @@ def test_load_errors_name_key_and_file(tmp_path):
         tv.load_materials(bad)
     with pytest.raises(ValueError, match="emax_over_e50.nonsense"):
         tv.load_materials(truncation="nonsense")
+    bad.write_text(good.replace("    bed: 100\n", "    bed: 1\n"))
+    with pytest.raises(ValueError, match=r"emax_over_e50\.bed.*outside"):
+        tv.load_materials(bad)
+    bad.write_text(good.replace("    A_percent: 67.7", "    A_percent: 120"))
+    with pytest.raises(ValueError, match=r"copper_ore\.A_percent.*outside"):
+        tv.load_materials(bad)
+    # t4 above t2 for every t10: the beta pair of "4" is that of "1.5" (a much steeper curve)
+    bad.write_text(good.replace('      "4": [1.08, 3.03]', '      "4": [0.20, 0.20]'))
+    with pytest.raises(ValueError, match=r"copper_ore\.incomplete_beta.*out of order"):
+        tv.load_materials(bad)
+
+
+def test_bad_materials_file_stops_the_study_before_any_job(tmp_path, monkeypatch):
+    from millsim.scenes.base import get_scene
+
+    good = (tv._resolve("config/materials.yaml")).read_text()
+    (tmp_path / "config").mkdir()
+    (tmp_path / "config" / "materials.yaml").write_text(good.replace("    sigma: 0.799", "    sigma: 0"))
+    monkeypatch.chdir(tmp_path)
+    for scene in ("single_particle", "bed_impact"):
+        with pytest.raises(ValueError, match="copper_ore.sigma"):
+            get_scene(scene).resolve({})
 
 
 def test_kwh_per_t_is_converted(tmp_path):

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import functools
 import math
-import warnings
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -285,8 +284,9 @@ def _material(where, name, e, ratio, ks):
     mat = TavaresMaterial(**kw)
     bad = tn_ordering_violations(mat.tn_params, t10_max=mat.A)
     if bad.size:
-        warnings.warn(f"{where}.incomplete_beta: t_n not ordered (t1.2 >= ... >= t75) for t10 in "
-                      f"[{bad.min():.3g}, {bad.max():.3g}] %; cumulative_passing clips it")
+        raise ValueError(f"{where}.incomplete_beta: these alpha_n/beta_n give t_n out of order "
+                         f"(t1.2 >= t1.5 >= ... >= t75 is required) for t10 in "
+                         f"[{bad.min():.3g}, {bad.max():.3g}] %")
     return mat
 
 

@@ -98,6 +98,7 @@ PARAMS = (
 def _check(values):
     if values["layers"] > 1 and values["rings"] < 1:
         raise ValueError("rings: a bed of several layers needs at least 1 ring")
+    tavares.load_materials()  # a bad config/materials.yaml is refused before any job runs
 
 
 # ---- geometry ---------------------------------------------------------------------------------

@@ -110,6 +110,7 @@ PARAMS = (
 def _check(values):
     if values["mode"] == "repeated" and values["replacement"] and values["impacts"] < 1:
         raise ValueError("impacts: at least 1")
+    _materials(values)  # a bad config/materials.yaml is refused before any job runs
 
 
 @dataclasses.dataclass
