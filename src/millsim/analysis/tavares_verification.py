@@ -472,27 +472,39 @@ def plot_repeated(ds, out):
 
 
 def plot_t10(ds, out):
-    """Seed 002 Fig. 16: t10 of the product vs input specific energy, simulation vs eq 7."""
+    """Seed 002 Fig. 16: t10 of the product vs input specific energy, simulation vs eq 7.
+    Colour: material/mode/size; marker: when particles break (breakage_at)."""
     import matplotlib
 
-    fig = _figure((7, 5))
+    fig = _figure((8.5, 5.5))
     ax = fig.subplots()
     colours = matplotlib.colormaps["tab10"]
+    markers = {"first_reach": "o", "end_of_loading": "s"}
+    groups = []
     for i, name in enumerate(ds["frag_case"].values):
+        group, _, at = str(name).rpartition("/")
+        first = group not in groups
+        if first:
+            groups.append(group)
+        c = colours(groups.index(group))
         sub = ds.isel(frag_case=i)
         E = sub["t10_specific_energy"].values
         ok = np.isfinite(sub["t10"].values)
-        order = np.argsort(E)
-        ax.plot(E[order], sub["t10_model"].values[order], "-", color=colours(i), label=f"{name}: eq 7 (E50b of broken)")
-        ax.plot(E[order], sub["t10_model_all"].values[order], ":", color=colours(i), lw=1)
-        ax.plot(E[order], sub["t10_primary"].values[order], "--", color=colours(i), lw=0.8)
+        order = np.argsort(E[ok])
+        if first:  # the model does not depend on breakage_at
+            for key, style, lw in (("t10_model", "-", 1.4), ("t10_model_all", ":", 1.0),
+                                   ("t10_primary", "--", 0.8)):
+                ax.plot(E[ok][order], sub[key].values[ok][order], style, color=c, lw=lw,
+                        label=f"{group}: eq 7" if key == "t10_model" else None)
         t = sub["t10"].values
         ax.errorbar(E[ok], t[ok], yerr=[t[ok] - sub["t10_lo"].values[ok], sub["t10_hi"].values[ok] - t[ok]],
-                    fmt="o", color=colours(i), capsize=2, ls="none", label=f"{name}: simulation (95% bootstrap)")
+                    fmt=markers.get(at, "^"), color=c, mfc="white" if at == "end_of_loading" else c,
+                    capsize=2, ls="none", label=f"{group}, {at}")
     ax.set(xscale="log", xlabel="input specific energy Ek/m [J/kg]", ylabel="t10 [%]",
-           title="t10 vs energy (seed 002 Fig. 16); dotted: eq 7 with E50 of all, dashed: eq 9")
+           title="t10 vs energy (seed 002 Fig. 16), 95% bootstrap intervals\n"
+                 "solid: eq 7 (E50b of the broken), dotted: E50 of all, dashed: eq 9")
     ax.title.set_fontsize("small")
-    ax.legend(fontsize="x-small")
+    ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.savefig(out, dpi=120)
 
 
