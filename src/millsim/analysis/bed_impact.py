@@ -108,16 +108,18 @@ def bed_broken_mass(ds: xr.Dataset, out: str) -> None:
 
 
 def bed_capture_radius(ds: xr.Dataset, out: str) -> None:
-    """Seed Fig. 20: capture radius against impact energy (each seed, and the mean)."""
+    """Seed Fig. 20: capture radius against impact energy (each seed, and the mean), for the
+    beds run at more than one energy (or every bed, when none was)."""
     fig = Figure(figsize=(6.0, 4.2))
     ax = fig.add_subplot()
     e = ds["impact_energy"].values
+    swept = bool((ds["capture_radius_mean"].notnull().sum("impact_energy") > 1).any())
     for mat in ds["material"].values:
         for rings, layers, label in _configs(ds.sel(material=mat)):
             sub = ds.sel(material=mat, rings=rings, layers=layers)
             mean = sub["capture_radius_mean"].values * 1e3
             ok = np.isfinite(mean)
-            if not ok.any():
+            if not ok.any() or (swept and ok.sum() < 2):
                 continue
             line = ax.plot(e[ok], mean[ok], "o-", label=f"{str(mat).replace('_', ' ')}, {label}")[0]
             per_seed = sub["capture_radius"].values * 1e3  # (energy, seed)
