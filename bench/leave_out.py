@@ -1,31 +1,37 @@
 """What "leave out what a scene does not need" buys: one dry case, physics compiled out vs in.
 
-    python bench/leave_out.py [--n 10000] [--steps 5000] [--repeats 3] [--json FILE]
+    python bench/leave_out.py [--n 10000] [--steps 5000] [--repeats 3] [--variants ...] [--json FILE]
 
 The case is the settled bed of the throughput benchmark (packing scene: Hertz-Mindlin spheres
-r = 1 mm in a walled box, gravity). The same state is timed with three compiled loops:
+r = 1 mm in a walled box, gravity). The same state is timed with five compiled loops:
 
 - ``lean``: the scene's own spec (Hertz-Mindlin, walls, gravity);
 - ``inactive``: the same plus Tavares breakage, lubrication and the energy audit compiled in but
   doing nothing physical (every fracture energy infinite, viscosity 0: the lubrication kernel
   runs and returns zero forces, and its h_max reach keeps more pairs in the neighbour list);
+- ``breakage``: the lean spec plus Tavares breakage only (loading work per contact and particle,
+  fracture energies infinite);
+- ``lubrication``: the lean spec plus lubrication only (viscosity 0, h_max reach in the list);
 - ``audit``: the lean spec plus the energy audit only.
 
-Each variant runs in its own process (so numba's thread pool and caches are fresh), is warmed up
-(compile excluded), and timed ``repeats`` times; the median particle-steps per second and the
-ratio to ``lean`` measured in the same run are reported. A settled state is taken from
+Each measurement runs in its own process (so numba's thread pool and caches are fresh), is warmed
+up (compile excluded) and timed once; the variants take turns, ``repeats`` rounds, so that the
+shared machine's load changes hit them alike. The median particle-steps per second of each
+variant and its ratio to ``lean`` are reported, with os.getloadavg() of every measurement. A settled state is taken from
 bench/out/millsim_box_state.csv when the throughput benchmark left one, else the packing scene
 settles a fresh bed first (slower).
 """
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+VARIANTS = ("lean", "inactive", "breakage", "lubrication", "audit")
 STATE = HERE / "out" / "millsim_box_state.csv"
 
 RUN = r"""
@@ -47,6 +53,12 @@ if variant == "inactive":
     spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, fracture="tavares",
                        lubrication=True, energy_audit=True)
     extra = dict(breakage={"grain": (5.0, 0.0)}, fluid=dict(eta=0.0))
+elif variant == "breakage":
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, fracture="tavares")
+    extra = dict(breakage={"grain": (5.0, 0.0)})
+elif variant == "lubrication":
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, lubrication=True)
+    extra = dict(fluid=dict(eta=0.0))
 elif variant == "audit":
     spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, energy_audit=True)
 walls = [dict(kind="plane", point=row[1:4], normal=row[4:7], material="grain") for row in base.walls]
@@ -59,14 +71,18 @@ for _ in range(repeats):
     t0 = sim.wall_seconds
     sim.run(steps, chunk=steps)
     rates.append(sim.n_particles * steps / (sim.wall_seconds - t0))
+import os, resource
 print(json.dumps({"variant": variant, "rates": rates, "n": sim.n_particles,
-                  "neighbour_pairs": int(sim.contacts.nbr.shape[0])}))
+                  "neighbour_pairs": int(sim.contacts.nbr.shape[0]),
+                  "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "loadavg": os.getloadavg()}))
 """
 
 
-def measure(variant, n, steps, repeats, state):
+def measure(variant, n, steps, repeats, state, threads=1):
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
     out = subprocess.run([sys.executable, "-c", RUN, variant, str(n), str(steps), str(repeats),
-                          state], capture_output=True, text=True, check=True)
+                          state], capture_output=True, text=True, check=True, env=env)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -75,17 +91,33 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=10000)
     ap.add_argument("--steps", type=int, default=5000)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--threads", type=int, default=1, help="numba threads of each measurement")
     ap.add_argument("--json", help="write the results here")
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
     args = ap.parse_args(argv)
     state = str(STATE) if STATE.exists() and args.n == 10000 else ""
-    results = {}
-    for variant in ("lean", "inactive", "audit"):
-        r = measure(variant, args.n, args.steps, args.repeats, state)
+    command = "python bench/leave_out.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    results = {"command": command, "loadavg_start": os.getloadavg(), "threads": args.threads,
+               "steps": args.steps,
+               "repeats": args.repeats}
+    variants = ["lean"] + [v for v in args.variants if v != "lean"]
+    # Interleaved: round after round every variant once (one process each), so that a change of
+    # the machine's load hits all variants alike.
+    for _ in range(args.repeats):
+        for variant in variants:
+            r = measure(variant, args.n, args.steps, 1, state, args.threads)
+            if variant in results:
+                results[variant]["rates"] += r["rates"]
+                results[variant]["loadavg"].append(r["loadavg"])
+            else:
+                results[variant] = dict(r, loadavg=[r["loadavg"]])
+    for variant in variants:
+        r = results[variant]
         r["median"] = statistics.median(r["rates"])
-        results[variant] = r
-        print(f"{variant:9s} median {r['median']:.3g} particle-steps/s "
+        print(f"{variant:11s} median {r['median']:.3g} particle-steps/s "
               f"({r['neighbour_pairs']} listed pairs)", flush=True)
-    for variant in ("inactive", "audit"):
+    results["loadavg_end"] = os.getloadavg()
+    for variant in [v for v in args.variants if v != "lean"]:
         results[variant]["ratio_to_lean"] = results[variant]["median"] / results["lean"]["median"]
         print(f"{variant} / lean = {results[variant]['ratio_to_lean']:.3f}")
     if args.json:

@@ -124,3 +124,224 @@ def test_high_viscosity_pair_runs_stable_and_closes_energy():
     omega = np.cross(d, p.v[0] - p.v[1]) / (d @ d)  # orbital rate of the pair
     assert p.w[0] == pytest.approx(omega, rel=0.02, abs=1e-6)
     assert p.w[1] == pytest.approx(omega, rel=0.02, abs=1e-6)
+
+
+# ------------------------------------------------------------------------------------------------
+# fragments down to 1/20 of the parent size (Tavares breakage, seed 002)
+# ------------------------------------------------------------------------------------------------
+
+TAVARES = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, gravity=False,
+                      fracture="tavares", energy_audit=True)
+
+
+def _hertz_elastic_energy(sim):
+    """Normal elastic energy [J] of the Hertz contacts (8/15 E* sqrt(R*) xi^5/2), pairs and walls,
+    counting only overlap beyond the creation reference of progeny. The tangential springs' energy
+    is not added: the audit's tangential terms already hold it (they integrate the tangential
+    force's whole power)."""
+    from millsim.engine import contact as law
+    from millsim.engine.kinematics import wall_contact
+
+    p, pp = sim.particles, sim.pair_params
+    i, j, overlap, slot = sim.contact_pairs(with_slots=True)
+    xi = np.maximum(overlap - sim.contacts.state[slot, sim.state_columns - 1], 0.0)
+    r_eff = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j])
+    e = float((8 / 15 * pp[p.material[i], p.material[j], law.P_E_STAR] * np.sqrt(r_eff)
+               * xi**2.5).sum())
+    for iw, wall in enumerate(sim.walls):
+        for q in range(sim.n_particles):
+            xw = wall_contact(wall, *p.x[q], p.radius[q])[0] - sim.wall_hist[q, iw, 5]
+            if xw > 0:
+                e += 8 / 15 * pp[p.material[q], int(wall[9]), law.P_E_STAR] * np.sqrt(
+                    p.radius[q]) * xw**2.5
+    return e
+
+
+def _ore_on_plate(v0, seed=3):
+    from millsim.breakage.replacement import TavaresReplacement
+    from millsim.breakage.tavares import load_materials
+
+    mats = load_materials(truncation="single_particle")
+    ore, steel = mats["copper_ore"], mats["steel"]
+    table = MaterialTable([Material("copper_ore", ore.density, ore.young, ore.poisson),
+                           Material("steel", steel.density, steel.young, steel.poisson)],
+                          {"*": Interaction(restitution=0.39, friction=0.5)})
+    r = 2.75e-3
+    replace = TavaresReplacement({"copper_ore": ore}, d_min=2 * r / 20, seed=seed)
+    # automatic dt (no smallest_radius): it has to follow the fragments as they appear
+    sim = Simulation(TAVARES, table, x=[[0, 0, 1.02 * r]], radius=[r], material="copper_ore",
+                     v=[[0, 0, -v0]], gravity=(0, 0, 0), impact_speed=v0,
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
+                     breakage={"copper_ore": (ore.gamma, 0.0)})
+    replace.assign_fracture_energies(sim, [0])
+    return sim, replace, ore
+
+
+def test_fragments_down_to_a_twentieth_of_the_parent_close_the_energy_audit():
+    """A 5.5 mm copper-ore sphere hits a steel plate at 40 m/s and breaks; its progeny break
+    again within the same impact (their fracture energies capped at 30 J/kg, the model's own
+    2,700-16,000 J/kg for these sizes would need > 50 m/s, below), down to d_min = parent/20.
+
+    - dt follows the smallest particle: no ``smallest_radius`` is declared, each replacement
+      re-evaluates the bounds and the automatic step follows the recommendation;
+    - energy: impact energy = kinetic + dissipated (audit) + elastic + energy removed at the
+      replacements, the latter measured around each handler call as the drop of kinetic +
+      elastic energy (the parent's contact springs vanish, fragments keep only its rigid motion);
+      within 1 %.
+    """
+    v0 = 40.0
+    sim, replace, ore = _ore_on_plate(v0)
+    r0, dt0, ke0 = sim.particles.radius[0], sim.dt, sim.kinetic_energy()
+    removed, dts = [0.0], []
+
+    def on_fracture(s):
+        before = s.kinetic_energy() + _hertz_elastic_energy(s)
+        replace(s)
+        finite = np.isfinite(s.particles.e_frac)
+        s.particles.e_frac[finite] = np.minimum(s.particles.e_frac[finite], 30.0)
+        removed[0] += before - s.kinetic_energy() - _hertz_elastic_energy(s)
+        dts.append(s.dt)
+
+    while sim.time < 1e-4:
+        sim.run(2000, chunk=2000, on_fracture=on_fracture)
+    p = sim.particles
+    assert np.isfinite(p.x).all() and np.isfinite(p.v).all()
+    d_min, d_small = 2 * r0 / 20, 2 * p.radius.min()
+    assert len(replace.events) >= 10
+    assert d_min <= d_small < 1.1 * d_min  # a second generation reached the resolved minimum
+    # the step followed the fragments: 0.1 of the Rayleigh time of the smallest one
+    from millsim.engine.timestep import RAYLEIGH_RECOMMENDED, rayleigh_time
+
+    mat = sim.table.materials[0]
+    t_r = rayleigh_time(p.radius.min(), mat.density, mat.shear_modulus, mat.poisson_ratio)
+    assert sim.dt <= RAYLEIGH_RECOMMENDED * t_r * (1 + 1e-12) and sim.dt < dt0 / 5
+    assert dts == sorted(dts, reverse=True)
+    ke = sim.kinetic_energy()
+    assert ke < ke0  # no runaway: the fragments carry less than the impact brought
+    lost = sum(sim.energy_audit().values()) + _hertz_elastic_energy(sim) + removed[0]
+    assert removed[0] > 0.05 * ke0
+    assert abs(ke0 - ke - lost) / ke0 < 0.01
+
+
+def test_fragments_squeezed_beyond_the_overlap_guard_stop_the_run_naming_the_pair():
+    """At 60 m/s with the model's own fracture energies, small progeny are squeezed between large
+    ones beyond 0.3 of their radius (Hertz is outside its range there): the run stops at that
+    step naming the pair and the limit, with a finite state."""
+    from millsim.engine import SimulationError
+
+    sim, replace, _ = _ore_on_plate(60.0)
+    with pytest.raises(SimulationError, match=r"overlap between particle \d+ and particle \d+ "
+                                              r"exceeds 0.3 of the smaller radius"):
+        sim.run(20000, chunk=2000, on_fracture=replace)
+    assert len(replace.events) >= 2
+    assert np.isfinite(sim.particles.x).all() and np.isfinite(sim.particles.v).all()
+
+
+# ------------------------------------------------------------------------------------------------
+# 4000 rpm: the stirred mill with lubrication (seed 004)
+# ------------------------------------------------------------------------------------------------
+
+def test_stirred_mill_at_4000_rpm_closes_its_energy_balance():
+    """The full-size LS1 agitator (scale 1: disk radius 34 mm, tip speed 14.2 m/s; its disk
+    built of 2 mm spheres instead of 0.9 mm, 655 instead of 7,248, to keep the test small) in a
+    periodic slice with 400 beads and eta = 0.05 Pa s, a quarter revolution from rest: agitator
+    work = d(kinetic + potential + elastic) + dissipation (contact and lubrication), within 1 %;
+    the beads stay below the tip speed. The same spec variant as tests/test_stirred_mill.py."""
+    from millsim.scenes import stirred_mill as sm
+    from millsim.scenes.base import get_scene
+
+    values = get_scene("stirred_mill").resolve(dict(scale=1.0, slice=True, n_beads=400, rpm=4000,
+                                                    eta=0.05, seed=3,
+                                                    agitator_particle_radius=2e-3))
+    sim, g = sm.build(values)
+    assert sim.spec.lubrication and g["tip_speed"] == pytest.approx(14.24, rel=1e-3)
+    k_n = g["k_n"]
+    k_t = k_n * values["tangential_stiffness_ratio"]
+    start = sm.energy_state(sim, k_n, k_t)
+    sim.run(int(round(0.25 * 60 / 4000 / sim.dt)), chunk=500)
+    end = sm.energy_state(sim, k_n, k_t)
+    d, _, rel = sm.energy_balance(start, end)
+    assert np.isfinite(sim.particles.v).all()
+    assert d["lubrication_normal"] + d["lubrication_tangential"] > 0.1 * d["work"]
+    assert abs(rel) < 0.01
+    speed = np.linalg.norm(sim.particles.v[sim.free], axis=1)
+    assert 0.5 * g["tip_speed"] < speed.max() < g["tip_speed"]
+
+
+def test_stirred_mill_at_4000_rpm_refuses_a_step_above_the_lubrication_limit():
+    """eta = 1 Pa s at the dry step (1e-5 s): refused up front, naming eta and h_min."""
+    from millsim.scenes import stirred_mill as sm
+    from millsim.scenes.base import get_scene
+
+    values = get_scene("stirred_mill").resolve(dict(scale=0.3, slice=True, n_beads=50, rpm=4000,
+                                                    eta=1.0, dt=1e-5))
+    with pytest.raises(TimeStepError, match=r"eta = 1 Pa s.*h_min"):
+        sm.build(values)
+
+
+# ------------------------------------------------------------------------------------------------
+# ball mill at 2 n/n_c (seed 000, 2D)
+# ------------------------------------------------------------------------------------------------
+
+def test_ball_mill_at_twice_the_critical_speed_closes_its_energy_balance():
+    """A 3 cm drum with 74 grains of 2 mm spun up from rest at 2 n/n_c (the charge centrifuges):
+    drum work = d(kinetic + potential + elastic) + dissipation within 1 %, no NaN.
+
+    Run without fragmentation: the audit covers the linear_hw contact (normal dashpot, the
+    Haff-Werner tangential force on centre and rotational slip), not the Weibull twin relief
+    (its dashpot and the constant separating force are outside it) nor the energy a split
+    removes. The audit variant of the scene's physics is compiled here (energy_audit on)."""
+    import dataclasses
+
+    from millsim.scenes import ballmill2d as bm
+    from millsim.scenes.base import get_scene
+
+    values = get_scene("ballmill2d").resolve(dict(fragmentation=False, n_over_nc=2.0,
+                                                  drum_radius=0.03, grain_radius=2e-3,
+                                                  sieve_radius=0.5e-3, lifter_height=3e-3,
+                                                  wall_radius=1e-3))
+    scene, _, omega = bm.build(values)
+    p, b = scene.particles, scene.bodies[0]
+    sim = Simulation(dataclasses.replace(scene.spec, energy_audit=True), scene.table,
+                     x=p.x.copy(), radius=p.radius.copy(), material="grain", body=p.body.copy(),
+                     bodies=[dict(kind="rotate", center=b[1:4], axis=b[4:7], rate=b[7])],
+                     gravity=scene.gravity, thickness=scene.thickness, skin=scene.skin,
+                     impact_speed=scene.impact_speed, max_overlap=0.5,
+                     smallest_radius=scene.smallest_radius)
+    sim.set_time_step(scene.dt)
+    # the scene's step is capped by the Haff-Werner tangential dashpot (Gear), not t_c / 25
+    assert "tangential dashpot" in sim.dt_report.binding.interaction
+    assert scene.dt == pytest.approx(sim.dt_report.limit)
+    k_n = scene.table.pair_params()[0, 0, 0]
+
+    def state(s):
+        elastic = 0.5 * k_n * float((s.contact_pairs()[2] ** 2).sum())
+        return np.array([s.body_work[0], s.kinetic_energy(), s.potential_energy(), elastic,
+                         sum(s.energy_audit().values())])
+
+    a = state(sim)
+    sim.run(int(round(0.25 / sim.dt)), chunk=5000)
+    d = state(sim) - a
+    assert np.isfinite(sim.particles.v).all()
+    assert d[0] > 0 and d[4] > 0.3 * d[0]
+    assert abs(d[0] - d[1:].sum()) / d[0] < 0.01
+    # centrifuged: the grains go round with the drum (mean angular speed about its axis)
+    free = sim.free
+    x, v = sim.particles.x[free], sim.particles.v[free]
+    rate = (x[:, 0] * v[:, 1] - x[:, 1] * v[:, 0]) / (x[:, 0] ** 2 + x[:, 1] ** 2)
+    assert np.median(rate) == pytest.approx(-omega, rel=0.1)
+
+
+def test_ball_mill_step_above_the_tangential_dashpot_limit_is_refused():
+    """Gear with the Haff-Werner gamma_T = 3000 1/s at t_c / 25 of the raw grains (1.4e-5 s,
+    where a resting charge gains energy: audit residual -30 % of the drum work in 0.5 s) is
+    refused up front, naming the dashpot."""
+    from millsim.scenes import ballmill2d as bm
+    from millsim.scenes.base import get_scene
+
+    values = get_scene("ballmill2d").resolve(dict(fragmentation=False, n_over_nc=2.0,
+                                                  drum_radius=0.03, grain_radius=2e-3,
+                                                  sieve_radius=0.5e-3, lifter_height=3e-3,
+                                                  wall_radius=1e-3, dt=1.4e-5))
+    with pytest.raises(TimeStepError, match=r"tangential dashpot gamma_T = 3000 1/s"):
+        bm.build(values)

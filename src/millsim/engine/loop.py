@@ -660,8 +660,19 @@ def build_chunk_runner(spec):
                             err[0] = ERR_SPEED if sp2 == sp2 else ERR_NONFINITE
                             err[1], err[2], err[3] = step, i, -1
                     else:
-                        # Body particles keep the load they received for the body reduction.
+                        # Body particles keep the load they received for the body reduction:
+                        # the force, and its moment about the body's centre taken here, at the
+                        # pose the force was computed at (the particle moves on just below; a
+                        # lever arm from the next pose tilted the body torque by rate x dt, a
+                        # first-order error in its power).
                         acc[i, 0], acc[i, 1], acc[i, 2] = F0, F1, F2
+                        if BODIES:
+                            r0 = x[i, 0] - bodies[body[i], 1]
+                            r1 = x[i, 1] - bodies[body[i], 2]
+                            r2 = x[i, 2] - bodies[body[i], 3]
+                            T0 += r1 * F2 - r2 * F1
+                            T1 += r2 * F0 - r0 * F2
+                            T2 += r0 * F1 - r1 * F0
                         alpha[i, 0], alpha[i, 1], alpha[i, 2] = T0, T1, T2
                         if BODIES and not last:
                             p0, p1, p2, u0, u1, u2 = body_pose(bodies[body[i]], x_body0[i],
@@ -700,15 +711,12 @@ def build_chunk_runner(spec):
                     i = body_members[q]
                     b = body[i]
                     bl = body_load[b]
-                    r0 = x[i, 0] - bodies[b, 1]
-                    r1 = x[i, 1] - bodies[b, 2]
-                    r2 = x[i, 2] - bodies[b, 3]
                     bl[0] += acc[i, 0]
                     bl[1] += acc[i, 1]
                     bl[2] += acc[i, 2]
-                    bl[3] += r1 * acc[i, 2] - r2 * acc[i, 1] + alpha[i, 0]
-                    bl[4] += r2 * acc[i, 0] - r0 * acc[i, 2] + alpha[i, 1]
-                    bl[5] += r0 * acc[i, 1] - r1 * acc[i, 0] + alpha[i, 2]
+                    bl[3] += alpha[i, 0]  # moment about the body's centre (pass 2)
+                    bl[4] += alpha[i, 1]
+                    bl[5] += alpha[i, 2]
                 for b in range(bodies.shape[0]):
                     for c in range(6):
                         body_impulse[b, c] += body_load[b, c] * dt
@@ -724,8 +732,8 @@ def build_chunk_runner(spec):
                 # plain sum (right-endpoint rule) runs half a step of dissipation ahead of the
                 # state, an O(dt) error wherever the audit is read mid-contact (it cancels only
                 # once the contacts have ended). dissipation[N_AUDIT:] keeps the last step's
-                # powers; NaN (start, particles added or removed) means unknown, and that step
-                # uses its own power.
+                # powers (0 at the start); NaN (particles added or removed since) means unknown,
+                # and that step uses its own power.
                 for a in range(N_AUDIT):
                     power = 0.0
                     for blk in range(n_blocks):

@@ -25,6 +25,12 @@ STEPS_PER_CONTACT_RECOMMENDED = 50
 RAYLEIGH_LIMIT = 0.4
 RAYLEIGH_RECOMMENDED = 0.1
 GEAR_OMEGA_DT_LIMIT = 0.2
+# Explicit stability of a pure decay v' = -g v (docs/lubrication.md): g dt <= 1 for this engine's
+# Verlet (dashpots see v + dt a), g dt <= 0.163 for the 6-value Gear corrector.
+VERLET_DAMPING_LIMIT = 1.0
+GEAR_DAMPING_LIMIT = 0.163
+# Contacts with immovable partners (wall disks, lifters) that can hold one particle at once.
+DASHPOT_CONTACTS = 3
 
 
 class TimeStepError(ValueError):
@@ -53,6 +59,29 @@ class StepBound:
     limit: float
     recommended: float
     advice: str = ""  # the way out beyond a smaller dt, for the refusal message
+
+
+def tangential_dashpot_bound(gamma_t, dim, integrator):
+    """Step bound of the Haff-Werner tangential force (``linear_hw``) below its Coulomb limit.
+
+    There F_T = -m_eff gamma_T v_t is a dashpot on the slip of the contact point, which moves
+    with translation and spin: one contact with an immovable partner relaxes the slip at
+    (1 + m a^2 / I) gamma_T = 3 gamma_T (disks) or 3.5 gamma_T (spheres) (a pair of free
+    particles at the same rate), and a particle held by DASHPOT_CONTACTS such contacts at up to
+    that many times this rate. gamma_T does not scale with the contact stiffness, so the
+    collision-time bounds do not cover it. Measured (tests/test_stability.py, a centrifuged 2D
+    ball mill, Gear): at 6 gamma_T dt = 0.142 the slip oscillates at the Coulomb limit and the
+    charge gains energy (audit residual -1.1 % of the drum work in 0.5 s, -30 % at 0.26), at
+    0.129 and below the audit closes (3e-4).
+    """
+    rate = DASHPOT_CONTACTS * (3.0 if dim == 2 else 3.5) * gamma_t
+    g = GEAR_DAMPING_LIMIT if integrator == "gear" else VERLET_DAMPING_LIMIT
+    limit = g / rate
+    return StepBound(
+        f"the tangential dashpot gamma_T = {gamma_t:g} 1/s of the Haff-Werner friction "
+        f"(slip relaxation up to {rate:.4g} 1/s for a particle held by {DASHPOT_CONTACTS} "
+        f"contacts; {integrator} needs rate x dt <= {g:g})",
+        limit, 0.5 * limit, "; or lower gamma_T")
 
 
 @dataclass(frozen=True)
@@ -134,6 +163,9 @@ def time_step_report(table, spec, radius, mass, material, body, boundary_materia
                 kn = p[law.P_K_N]
                 if spec.contact_law == "linear_hw":
                     gamma = p[law.P_GAMMA_N]
+                    if p[law.P_GAMMA_T] > 0:
+                        bounds.append(tangential_dashpot_bound(float(p[law.P_GAMMA_T]), spec.dim,
+                                                               spec.integrator))
                 else:
                     gamma = 2.0 * p[law.P_ZETA_N] * math.sqrt(kn / m_eff)
                 t_c, w0 = linear_contact_time(kn, m_eff, gamma)

@@ -1,0 +1,328 @@
+"""Write bench/RESULTS.md from the JSON files the benchmarks left in bench/out.
+
+    python bench/make_results.py [--out bench/RESULTS.md]
+
+Nothing is measured here: every number comes from a JSON file, and each table names the command
+that writes it. Files read (any may be missing; its section then says so):
+
+- ``box_<cores>.json``, ``drum_<cores>.json``: bench/engine_throughput.py (millsim vs LIGGGHTS);
+- ``leave_out_*.json``: bench/leave_out.py (physics compiled out vs in but inactive);
+- ``scaling*.json``: bench/scaling.py (cost vs particle count and time step, peak memory);
+- ``ls1*.json``: bench/ls1.py (full-scale LS1 stirred mill vs seed 004 Table 3).
+"""
+
+import argparse
+import json
+import os
+import platform
+import statistics
+from datetime import date
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+OUT = HERE / "out"
+
+
+def _load(pattern):
+    return [(p, json.loads(p.read_text())) for p in sorted(OUT.glob(pattern))]
+
+
+def _g(x, digits=3):
+    if x is None:
+        return "-"
+    if isinstance(x, str):
+        return x
+    if x == 0:
+        return "0"
+    return f"{x:.{digits}g}"
+
+
+def _load_note(loads):
+    """'0.9-6.3' from a list of 1-minute load averages (None: not recorded)."""
+    loads = [v for v in loads if v is not None]
+    if not loads:
+        return "not recorded"
+    lo, hi = f"{min(loads):.1f}", f"{max(loads):.1f}"
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+def _one_minute(pair):
+    """1-minute load averages of a [before, after] pair of os.getloadavg() tuples."""
+    if not pair:
+        return []
+    if isinstance(pair[0], (int, float)):
+        return [pair[0]]
+    return [p[0] for p in pair]
+
+
+def _command(d):
+    text = f"`{d['command']}`" if d.get("command") else "command not recorded"
+    return text + (f"; {d['note']}" if d.get("note") else "")
+
+
+def _machine():
+    model = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{platform.system()} {platform.machine()}, {os.cpu_count()} logical CPUs" + (
+        f" ({model})" if model else "")
+
+
+def _table(head, rows):
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def throughput():
+    files = _load("box_*.json") + _load("drum_*.json")
+    text = ["## Engine throughput against LIGGGHTS 3.8", ""]
+    if not files:
+        return text + ["No `box_*.json` / `drum_*.json` in bench/out.", ""]
+    text += ["The same settled bed of 10,000 spheres (box) or the same spun-up drum, 20,000 steps at "
+             "dt = 1e-6 s in both codes in the same run; particle-steps per second of the timed loop "
+             "(one measurement per file). Command (per row): "
+             "`python bench/engine_throughput.py --case <case> --cores <cores> "
+             "--json bench/out/<case>_<cores>.json`.", ""]
+    rows = []
+    for p, d in files:
+        rows.append([d["case"], d["cores"], _g(d["millsim_psps"]), _g(d["liggghts_psps"]),
+                     f"{d['ratio']:.2f}", _g(d["millsim_contacts_per_particle"]),
+                     d.get("millsim_list_rebuilds", "-"), f"{d['compile_s']:.1f}",
+                     f"{d['cached_start_s']:.1f}", _load_note(_one_minute(d.get("loadavg"))),
+                     p.name])
+    text.append(_table(["case", "cores", "millsim [particle-steps/s]", "LIGGGHTS [particle-steps/s]",
+                        "millsim / LIGGGHTS", "contacts/particle", "list rebuilds", "compile [s]",
+                        "cached start [s]", "load (1 min)", "file"], rows))
+    ratios = [d["ratio"] for _, d in files]
+    text += ["", f"Median ratio millsim / LIGGGHTS over the {len(ratios)} runs: "
+             f"{statistics.median(ratios):.2f}.", ""]
+    return text
+
+
+def leave_out():
+    files = _load("leave_out_*.json")
+    text = ["## Leave out what a scene does not need", ""]
+    if not files:
+        return text + ["No `leave_out_*.json` in bench/out.", ""]
+    text += ["The settled 10,000-sphere bed of the throughput case (dry Hertz-Mindlin), timed with "
+             "loops compiled with more physics than it uses, all of it inactive (fracture energies "
+             "infinite, eta = 0): `inactive` = Tavares breakage + lubrication + energy audit, "
+             "`breakage`, `lubrication`, `audit` = each alone. Median of the repeats; ratio = "
+             "median / median of `lean` (the scene's own loop) from the same file. Each file names the command that wrote it "
+             "(`leave_out_1.json`: `python bench/leave_out.py`, three variants, one thread, before "
+             "the split).", ""]
+    for p, d in files:
+        variants = [v for v in ("lean", "inactive", "breakage", "lubrication", "audit") if v in d]
+        loads = [d.get("loadavg_start", [None])[0] if d.get("loadavg_start") else None]
+        rows = []
+        for v in variants:
+            r = d[v]
+            lv = r.get("loadavg")
+            if isinstance(lv, list) and lv and isinstance(lv[0], list):
+                vl = [x[0] for x in lv]
+            elif isinstance(lv, list) and lv:
+                vl = [lv[0]]
+            else:
+                vl = []
+            loads += vl
+            rows.append([v, _g(r["median"]), f"{r['median'] / d['lean']['median']:.3f}",
+                         " ".join(_g(x) for x in r["rates"]), r.get("neighbour_pairs", "-"),
+                         _g(r.get("max_rss_mb")), _load_note(vl)])
+        threads = d.get("threads", "1 (README; not recorded)")
+        text += [f"`{p.name}` ({_command(d)}): threads {threads}, {d.get('repeats', 3)} x "
+                 f"{d.get('steps', 5000)} steps per variant, load (1 min) "
+                 f"{_load_note(loads)}.", ""]
+        text.append(_table(["variant", "median [particle-steps/s]", "ratio to lean",
+                            "repeats [particle-steps/s]", "listed pairs", "peak RSS [MB]",
+                            "load (1 min)"], rows))
+        text.append("")
+    return text
+
+
+def _rpm(c):
+    """Agitator speed of a bead case (files written before it was recorded ran at the scene's
+    default, 2500 rpm)."""
+    if c.get("physics") != "beads_lubrication":
+        return "-"
+    return f"{c.get('rpm', 2500.0):.0f}"
+
+
+def scaling():
+    files = _load("scaling*.json")
+    text = ["## Cost against particle count and time step", ""]
+    if not files:
+        return text + ["No `scaling*.json` in bench/out.", ""]
+    text += ["Each scene's physics compiled as its scene compiles it (bench/scaling.py docstring: "
+             "2D ball-mill disks with the drum body, Gear, Weibull and pressure sums; Hertz "
+             "spheres with walls, gravity, rolling friction and Tavares; stirred-mill beads with "
+             "lubrication, agitator body and walls). One process per case: warm-up, then the timed "
+             "steps (compiled chunks only); one measurement per case. `wall/sim s` = wall seconds "
+             "per simulated second = seconds per step / dt. `N` counts all particles (grains or "
+             "beads + drum/agitator particles), `free` the moving ones. Peak memory: ru_maxrss of "
+             "the case's process. Each file names the command that wrote it.", ""]
+    for p, d in files:
+        cases = d["cases"]
+        base = [c for c in cases if not c.get("failed") and c.get("dt_factor") == 1.0
+                and c.get("eta", 0.1) in (0.1, None)]
+        extra = [c for c in cases if not c.get("failed") and c not in base]
+        failed = [c for c in cases if c.get("failed")]
+        loads = [x for c in cases if not c.get("failed") for x in _one_minute(c.get("loadavg"))]
+        text += [f"`{p.name}` ({_command(d)}): {d.get('steps')} timed steps per case, {d.get('threads')} threads "
+                 f"requested (systems below 2,000 particles run on 1), load (1 min) "
+                 f"{_load_note(loads)}.", ""]
+        head = ["physics", "N", "free", "rpm", "threads", "dt [s]", "ms/step", "wall/sim s [s]",
+                "particle-steps/s", "contacts/particle", "listed pairs/particle", "list rebuilds",
+                "setup [s]", "peak RSS [MB]", "load (1 min)"]
+
+        def row(c):
+            return [c["physics"], c["n_particles"], c.get("free_particles", "-"), _rpm(c),
+                    c.get("threads_used", "-"), _g(c["dt"]), _g(c["s_per_step"] * 1e3),
+                    _g(c["wall_s_per_sim_s"]), _g(c["particle_steps_per_s"]),
+                    _g(c["contacts_per_particle"]), _g(c["listed_pairs_per_particle"]),
+                    c["list_rebuilds"], _g(c["setup_s"]), _g(c["max_rss_mb"]),
+                    _load_note(_one_minute(c.get("loadavg")))]
+
+        text += ["Against particle count (each physics at its scene's step):", ""]
+        text.append(_table(head, [row(c) for c in base]))
+        text.append("")
+        for ph in sorted({c["physics"] for c in base}):
+            rs = sorted((c for c in base if c["physics"] == ph), key=lambda c: c["n_particles"])
+            # compare like with like: the same number of threads
+            rs = [c for c in rs if c.get("threads_used") == rs[-1].get("threads_used")]
+            if len(rs) > 1:
+                a, b = rs[0], rs[-1]
+                text.append(f"- {ph}: from {a['n_particles']} to {b['n_particles']} particles "
+                            f"({b.get('threads_used')} threads) the cost per particle-step changes "
+                            f"by x{a['particle_steps_per_s'] / b['particle_steps_per_s']:.2f} "
+                            f"(1.00 = linear scaling).")
+        text.append("")
+        if extra:
+            text += ["Against time step (at ~10,000 free particles; for the beads the step follows "
+                     "the lubrication bound, so the viscosity sets it):", ""]
+            head2 = ["physics", "rpm", "eta [Pa s]", "dt factor", "dt [s]", "ms/step", "wall/sim s [s]",
+                     "list rebuilds", "contacts/particle", "load (1 min)"]
+            ref = {c["physics"]: c for c in base if 5000 <= c.get("free_particles", 0) <= 20000}
+            rows = []
+            for c in sorted(ref.values(), key=lambda c: c["physics"]) + extra:
+                rows.append([c["physics"], _rpm(c), _g(c.get("eta")) if c["physics"] == "beads_lubrication"
+                             else "-", _g(c["dt_factor"]), _g(c["dt"]), _g(c["s_per_step"] * 1e3),
+                             _g(c["wall_s_per_sim_s"]), c["list_rebuilds"],
+                             _g(c["contacts_per_particle"]),
+                             _load_note(_one_minute(c.get("loadavg")))])
+            text.append(_table(head2, rows))
+            text.append("")
+        for c in failed:
+            text.append(f"- not measured: {c['physics']} n = {c['n']} ({_rpm(c)} rpm, dt x{c['dt_factor']:g}): "
+                        f"{c['error']}")
+        if failed:
+            text.append("")
+    return text
+
+
+def ls1():
+    files = _load("ls1*.json")
+    text = ["## Full-scale LS1 stirred mill against seed 004 Table 3", ""]
+    if not files:
+        return text + ["No `ls1*.json` in bench/out.", ""]
+    text += ["Scene `stirred_mill` at scale 1, slice false (the whole 4-disk chamber), 1.8 mm "
+             "beads at the Table 2 filling (config/paper.yaml): beads + agitator-disk spheres. "
+             "One process per case, started from the scene's lattice start (beads barely touch "
+             "yet; the lubrication pairs are all there). `setup` = building the case after the "
+             "imports; `first 5 steps` = loading (or compiling) the loop; the timed run = wall "
+             "time of the compiled chunks for the simulated time shown. Projection = wall per "
+             "simulated ms x 52.5 ms (the seed's run, Table 3: eta = 0 on 1 processor, 1 Pa s on "
+             "8). Each file names the command that wrote it.", ""]
+    for p, d in files:
+        rows = []
+        loads = []
+        failed = [c for c in d["cases"] if c.get("failed")]
+        for c in d["cases"]:
+            if c.get("failed"):
+                continue
+            lv = _one_minute(c.get("loadavg"))
+            loads += lv
+            seed = c.get("seed_table3_h")
+            proj = c["projection_52p5ms_h"]
+            rows.append([_g(c["eta"]), f"{_g(c['dt'])} ({c.get('dt_choice', '-')})", c["steps"],
+                         _g(c["sim_ms"]), _g(c["setup_s"]), _g(c["first_steps_s"]),
+                         _g(c["s_per_step"]), _g(c["wall_s_per_sim_ms"]), _g(proj),
+                         f"{_g(seed)} ({c.get('seed_table3_processors', '-')} proc.)" if seed else "-",
+                         _g(proj / seed) if seed else "-", _g(c["particle_steps_per_s"]),
+                         _g(c["contacts_per_particle"]), c["list_rebuilds"], _g(c["max_rss_mb"]),
+                         _load_note(lv)])
+        for c in failed:
+            text += [f"`{p.name}` ({_command(d)}), {d['rpm']:g} rpm, eta = {c['eta']:g} Pa s: the run did not "
+                     f"complete: `{c['error']}`", ""]
+        ok = [c for c in d["cases"] if not c.get("failed")]
+        if not ok:
+            continue
+        c0 = ok[0]
+        text += [f"`{p.name}` ({_command(d)}): {c0['n_particles']} particles ({c0['n_beads']} beads, "
+                 f"{c0['n_agitator_particles']} agitator spheres), {d['rpm']:g} rpm, "
+                 f"{d['threads']} threads, load (1 min) {_load_note(loads)}.", ""]
+        text.append(_table(["eta [Pa s]", "dt [s]", "steps", "simulated [ms]", "setup [s]",
+                            "first 5 steps [s]", "s/step", "wall s per simulated ms",
+                            "projected 52.5 ms [h]", "seed Table 3 [h]", "projected / seed",
+                            "particle-steps/s", "contacts/particle", "list rebuilds",
+                            "peak RSS [MB]", "load (1 min)"], rows))
+        text.append("")
+    return text
+
+
+def summary():
+    """A few headline numbers, each from the newest file of its kind."""
+    text = ["## Summary", ""]
+    lo = _load("leave_out_*.json")
+    if lo:
+        name, d = lo[-1]
+        parts = [f"{v} {d[v]['median'] / d['lean']['median']:.2f}"
+                 for v in ("inactive", "breakage", "lubrication", "audit") if v in d]
+        text.append(f"- Leave out (`{name.name}`): particle-steps/s relative to the lean loop: "
+                    + ", ".join(parts) + ".")
+    for name, d in _load("ls1*.json"):
+        for c in d["cases"]:
+            if c.get("failed"):
+                text.append(f"- LS1 at {d['rpm']:g} rpm, eta = {c['eta']:g} Pa s (`{name.name}`): did "
+                            f"not complete ({c['error'].split(': ', 1)[-1][:90]}...).")
+                continue
+            seed = c.get("seed_table3_h")
+            text.append(
+                f"- LS1 at {d['rpm']:g} rpm, eta = {c['eta']:g} Pa s, dt = {c['dt']:.3g} s "
+                f"({c.get('dt_choice', '-')}), {d['threads']} threads (`{name.name}`): "
+                f"{c['wall_s_per_sim_ms']:.3g} s per simulated ms -> "
+                f"{c['projection_52p5ms_h']:.3g} h for 52.5 ms"
+                + (f" (seed Table 3: {seed} h on {c['seed_table3_processors']} processor(s))"
+                   if seed else "") + f"; setup {c['setup_s']:.0f} s, peak {c['max_rss_mb']:.0f} MB.")
+    text.append("")
+    return text
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=str(HERE / "RESULTS.md"))
+    args = ap.parse_args(argv)
+    text = ["# Benchmark results", "",
+            f"Generated by `python bench/make_results.py` on {date.today().isoformat()} from the "
+            "JSON files in bench/out (each section names the command that writes its files; "
+            "rerun it, then this script). Machine of this generation: " + _machine() + ".", "",
+            "**Load.** The benchmarks ran on the project's shared 2-core VM while other jobs ran "
+            "(os.getloadavg() is stored with every measurement and shown per row). With a 1-minute "
+            "load above the number of cores, a measurement runs slower than on a quiet machine, "
+            "by up to load / cores; compare rows of similar load, and ratios measured in the same "
+            "run (millsim / LIGGGHTS, variant / lean), which the interleaving of the measurements "
+            "makes largely load-independent. Timings older than the load recording say \"not "
+            "recorded\".", ""]
+    for section in (summary, throughput, leave_out, scaling, ls1):
+        text += section()
+    Path(args.out).write_text("\n".join(text).rstrip() + "\n")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
