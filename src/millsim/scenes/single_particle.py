@@ -298,6 +298,11 @@ def _reset_survivors(s: Setup):
     p.x[:] = s.home[s.ids]
     p.v[:] = [0.0, 0.0, -s.speed]
     p.w[:] = 0.0
+    # free flight again: no force (the last impact may have ended with a contact still unloading,
+    # and a leftover acceleration would be applied in the first step of the next impact)
+    p.acc[:] = 0.0
+    p.alpha[:] = 0.0
+    p.gear[:] = 0.0
     p.e_acc[:] = 0.0
     sim.wall_hist[:] = 0.0
     sim.remove_particles(np.zeros(sim.n_particles, bool))  # rebuilds the neighbour list
