@@ -30,6 +30,14 @@ if "single_particle" in config:
     include: "workflow/rules/single_particle.smk"
 
 
+# Error against run time (issue 6): `snakemake --cores 2 accuracy`; not part of `rule all`
+# (about 30 min on 2 cores from scratch). Included after the scenes: it adds studies of their
+# scenes.
+if "accuracy" in config:
+
+    include: "workflow/rules/accuracy.smk"
+
+
 localrules:
     all,
 

@@ -1,0 +1,173 @@
+# Error against run time (work-precision, issue 6): for each scene, ladders of time steps x
+# seeds against a converged reference. Target:  snakemake --cores 2 accuracy
+# (about 30 min on 2 cores from scratch, hence not part of `rule all`).
+#
+# Config block `accuracy` (config/config.yaml): per scene name (ballmill, single_particle,
+# bed_impact, stirred_mill) fixed `parameters`, `seed` (repeated at every step), and `series`:
+# each series sets a few parameters (`set`, e.g. the integrator or eta) and sweeps one step
+# parameter (`ladder`: dt, dt_factor or steps_per_contact); `reference: <series>` compares it with
+# another series' converged value (Verlet against Gear). Cases, one `millsim run` each, cached:
+#   results/cases/accuracy_<name>_<series>/<ladder>~<v>/seed~<s>/case.nc
+# then one table per series (results/accuracy/<name>/<series>.csv), the aggregate
+# results/aggregate/accuracy.nc (+ results/accuracy/summary.md), and one figure per scene
+# results/plots/error_vs_runtime_<name>.png. The analysis: millsim.analysis.accuracy.
+
+import json
+
+ACCURACY = config.get("accuracy") or {}
+ACCURACY_TOLERANCE = ACCURACY.get("tolerance", 0.01)
+ACCURACY_LIMIT_FRACTION = ACCURACY.get("limit_fraction", 1.0)
+# config name -> scene
+ACCURACY_SCENES = {
+    "ballmill": "ballmill2d",
+    "single_particle": "single_particle",
+    "bed_impact": "bed_impact",
+    "stirred_mill": "stirred_mill",
+}
+ACCURACY_NAMES = [n for n in ACCURACY_SCENES if n in ACCURACY]
+# study -> (name, series, scene, ladder parameter)
+ACCURACY_STUDIES = {}
+
+for _name in ACCURACY_NAMES:
+    _block = ACCURACY[_name]
+    for _series, _spec in _block["series"].items():
+        (_ladder,) = _spec["ladder"]
+        if _spec.get("reference") and _spec["reference"] not in _block["series"]:
+            raise ValueError(
+                f"config accuracy.{_name}.series.{_series}.reference: "
+                f"{_spec['reference']!r} is not a series of {_name}"
+            )
+        _study = f"accuracy_{_name}_{_series}"
+        STUDIES[_study] = make_study(
+            f"accuracy.{_name}.series.{_series}",
+            ACCURACY_SCENES[_name],
+            {
+                **(_block.get("parameters") or {}),
+                **(_spec.get("set") or {}),
+                **_spec["ladder"],
+                "seed": _spec.get("seed", _block["seed"]),
+            },
+            [_ladder, "seed"],
+        )
+        ACCURACY_STUDIES[_study] = (_name, _series, ACCURACY_SCENES[_name], _ladder)
+
+
+def accuracy_tables():
+    return [
+        f"results/accuracy/{name}/{series}.csv"
+        for name, series, _, _ in ACCURACY_STUDIES.values()
+    ]
+
+
+def accuracy_options():
+    """`aggregate` options: borrowed references, reference methods, deciding observables."""
+    opts = []
+    for name in ACCURACY_NAMES:
+        block = ACCURACY[name]
+        for series, spec in block["series"].items():
+            if spec.get("reference"):
+                opts.append(f"--reference {name}/{series}={spec['reference']}")
+        if block.get("extrapolation"):
+            opts.append(f"--method {name}={block['extrapolation']}")
+        if block.get("decide_on"):
+            opts.append(f"--decide {name}={','.join(block['decide_on'])}")
+    return " ".join(opts)
+
+
+def accuracy_targets():
+    """What the `accuracy` rule asks for (not part of `rule all`: ~30 min on 2 cores)."""
+    if not ACCURACY_NAMES:
+        return []
+    return [
+        "results/aggregate/accuracy.nc",
+        *(f"results/plots/error_vs_runtime_{name}.png" for name in ACCURACY_NAMES),
+    ]
+
+
+localrules:
+    accuracy,
+    accuracy_collect,
+    aggregate_accuracy,
+    plot_accuracy,
+
+
+# One simulate rule per ladder (its case paths have their own wildcards); cached between
+# workflows (`--cache`) like every other case; wall time and dt are in the case file.
+for _study, (_name, _series, _scene, _ladder) in ACCURACY_STUDIES.items():
+
+    rule:
+        name:
+            f"simulate_{_study}"
+        output:
+            case=case_file(_study),
+        log:
+            case_log(f"simulate_{_study}", _study),
+        cache: True
+        threads: 1
+        params:
+            scene=_scene,
+            sets=case_sets(_study),
+            engine=ENGINE,
+        shell:
+            "millsim run {params.scene} {params.sets} --threads {threads} --out {output.case}"
+            " > {log} 2>&1"
+
+
+rule accuracy_collect:
+    input:
+        cases=lambda wc: case_files(f"accuracy_{wc.subject}_{wc.series}"),
+    output:
+        "results/accuracy/{subject}/{series}.csv",
+    log:
+        "results/logs/accuracy_collect/{subject}/{series}.log",
+    wildcard_constraints:
+        subject="|".join(ACCURACY_NAMES) or "none",
+    params:
+        ladder=lambda wc: ACCURACY_STUDIES[f"accuracy_{wc.subject}_{wc.series}"][3],
+    shell:
+        "python -m millsim.analysis.accuracy collect {input.cases} --name {wildcards.subject}"
+        " --series {wildcards.series} --ladder {params.ladder} --out {output} > {log} 2>&1"
+
+
+rule aggregate_accuracy:
+    input:
+        accuracy_tables(),
+    output:
+        data="results/aggregate/accuracy.nc",
+        summary="results/accuracy/summary.md",
+    log:
+        "results/logs/aggregate_accuracy.log",
+    params:
+        tolerance=ACCURACY_TOLERANCE,
+        limit_fraction=ACCURACY_LIMIT_FRACTION,
+        options=accuracy_options(),
+        config=shlex.quote(json.dumps(ACCURACY, sort_keys=True)),
+    shell:
+        "python -m millsim.analysis.accuracy aggregate {input} --tolerance {params.tolerance}"
+        " --limit-fraction {params.limit_fraction} {params.options}"
+        " --config-json {params.config} --out {output.data}"
+        " --summary {output.summary} > {log} 2>&1"
+
+
+rule plot_accuracy:
+    input:
+        "results/aggregate/accuracy.nc",
+    output:
+        report(
+            "results/plots/error_vs_runtime_{subject}.png",
+            caption="../report/accuracy_plot.rst",
+            category="Accuracy: error against run time",
+            labels={"scene": "{subject}"},
+        ),
+    log:
+        "results/logs/plot_accuracy/{subject}.log",
+    wildcard_constraints:
+        subject="|".join(ACCURACY_NAMES) or "none",
+    shell:
+        "python -m millsim.analysis.accuracy plot {wildcards.subject} {input} --out {output}"
+        " > {log} 2>&1"
+
+
+rule accuracy:
+    input:
+        accuracy_targets(),
