@@ -46,6 +46,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from . import cli_main
+
 __all__ = [
     "OBSERVABLES", "Observable", "observed_order", "richardson", "reference_value",
     "ladder_statistics", "error_table", "cheapest_within", "analyse", "to_dataset",
@@ -719,13 +721,7 @@ def build_parser():
 
 
 def main(argv=None):
-    args = build_parser().parse_args(argv)
-    try:
-        args.func(args)
-    except (ValueError, FileNotFoundError, KeyError) as exc:
-        print(f"accuracy: error: {exc}", file=sys.stderr)
-        return 2
-    return 0
+    return cli_main.run(build_parser, "accuracy", argv)
 
 
 if __name__ == "__main__":

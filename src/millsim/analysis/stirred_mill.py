@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from ..io import case_parameters, read_case
+from . import cli_main
 
 REFERENCE_COLUMNS = ("rpm", "fluid", "eta_exp", "net_power", "source")
 DRY = "dry"
@@ -221,13 +222,7 @@ def build_parser():
 
 
 def main(argv=None):
-    args = build_parser().parse_args(argv)
-    try:
-        args.func(args)
-    except (ValueError, FileNotFoundError, KeyError) as exc:
-        print(f"stirred_mill: error: {exc}", file=sys.stderr)
-        return 2
-    return 0
+    return cli_main.run(build_parser, "stirred_mill", argv)
 
 
 if __name__ == "__main__":

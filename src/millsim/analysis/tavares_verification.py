@@ -244,14 +244,14 @@ def aggregate(paths):
     if prob:
         modes = sorted({p["mode"] for p, _ in prob})
         mats = sorted({p["material"] for p, _ in prob})
-        ratios = sorted({float(ds["energy_ratio"]) for _, ds in prob})
+        ratios = sorted({_ratio(ds) for _, ds in prob})
         shape = (len(modes), len(mats), len(ratios))
         names = ("n", "broken", "fraction", "ci_lo", "ci_hi", "analytic", "inside",
                  "specific_energy", "absorbed_share")
         arr = {k: np.full(shape, np.nan) for k in names}
         for p, ds in prob:
             ix = (modes.index(p["mode"]), mats.index(p["material"]),
-                  ratios.index(float(ds["energy_ratio"])))
+                  ratios.index(_ratio(ds)))
             arr["n"][ix] = float(ds["n_particles"])
             arr["broken"][ix] = float(ds["n_broken"])
             arr["fraction"][ix] = float(ds["broken_fraction"])
@@ -325,7 +325,7 @@ def aggregate(paths):
             if p["mode"] in ("single", "drop_weight") and "product_passing" in ds]
     if frag:
         keys = sorted({_frag_key(p) for p, _ in frag})
-        fr = sorted({float(ds["energy_ratio"]) for _, ds in frag})
+        fr = sorted({_ratio(ds) for _, ds in frag})
         sieves = frag[0][1]["sieve"].values
         shape = (len(keys), len(fr))
         names = ("t10", "t10_lo", "t10_hi", "t10_model", "t10_model_all", "t10_primary",
@@ -335,7 +335,7 @@ def aggregate(paths):
         psd_model = np.full(shape + (len(sieves),), np.nan)
         for p, ds in frag:
             ix = (keys.index(_frag_key(p)),
-                  fr.index(float(ds["energy_ratio"])))
+                  fr.index(_ratio(ds)))
             arr["t10"][ix] = float(ds["product_t10"])
             arr["t10_lo"][ix] = float(ds["product_t10_ci_lo"])
             arr["t10_hi"][ix] = float(ds["product_t10_ci_hi"])
@@ -381,6 +381,12 @@ def aggregate(paths):
         if len(c) == 2:
             coords[name] = (c[0], c[1], {"units": "1"})
     return xr.Dataset(out, coords=coords, attrs=attrs)
+
+
+def _ratio(ds):
+    # the same energy_ratio differs in the last digits between materials (it is recomputed from
+    # the specific energy): one grid column per configured ratio
+    return round(float(ds["energy_ratio"]), 9)
 
 
 def _frag_key(p):
