@@ -1,5 +1,6 @@
 """Error against run time (millsim.analysis.accuracy) on synthetic ladders with known answers, its
-netCDF and figure, and the `accuracy` Snakemake target (dry run, no simulation)."""
+netCDF and figure, `millsim analyse accuracy`, and the `accuracy` Snakemake target (dry run, no
+simulation)."""
 
 import math
 import shutil
@@ -14,7 +15,9 @@ import xarray as xr
 import yaml
 
 from millsim.analysis import accuracy as acc
-from millsim.io import write_case
+from millsim.cli import main
+from millsim.io import write_case, write_netcdf
+from millsim.plots import plot
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -187,7 +190,7 @@ def test_dataset_roundtrip_summary_and_figure(tmp_path):
     points, choices = acc.analyse(cases, links={("ballmill", "verlet"): "gear"})
     ds = acc.to_dataset(cases, points, choices, {"tolerance": 0.01})
     path = tmp_path / "accuracy.nc"
-    acc.write_dataset(ds, path)
+    write_netcdf(path, ds)
     with xr.open_dataset(path, engine="netcdf4") as back:
         back = back.load()
     assert all("units" in back[v].attrs for v in back.variables)
@@ -197,13 +200,11 @@ def test_dataset_roundtrip_summary_and_figure(tmp_path):
     assert set(acc.points_frame(back, "case")["series"]) == {"gear", "verlet"}
     text = acc.summary_markdown(again, acc.points_frame(back, "choice"))
     assert "ballmill / verlet: drive_power" in text and "of series gear" in text
-    from millsim import plots_accuracy
-
     out = tmp_path / "fig.png"
-    plots_accuracy.plot("ballmill", path, out)
+    plot("error_vs_runtime_ballmill", path, out)
     assert out.read_bytes()[:8] == PNG
     with pytest.raises(ValueError, match="no accuracy points"):
-        plots_accuracy.plot("stirred_mill", path, tmp_path / "none.png")
+        plot("error_vs_runtime_stirred_mill", path, tmp_path / "none.png")
 
 
 def synthetic_stirred_case(path, dt, seed, power, residual):
@@ -225,20 +226,23 @@ def test_command_line_from_case_files(tmp_path):
             synthetic_stirred_case(p, dt, seed, 1.3 + 1e8 * dt**2 + 0.01 * seed, 1e2 * dt)
             paths.append(str(p))
     table = tmp_path / "dry.csv"
-    assert acc.main(["collect", *paths, "--name", "stirred_mill", "--series", "dry",
-                     "--ladder", "dt", "--out", str(table)]) == 0
+    assert main(["analyse", "accuracy", "collect", *paths, "--name", "stirred_mill", "--series",
+                 "dry", "--ladder", "dt", "--out", str(table)]) == 0
     out = tmp_path / "accuracy.nc"
-    assert acc.main(["aggregate", str(table), "--config-json", '{"a": 1}', "--out", str(out),
-                     "--summary", str(tmp_path / "summary.md")]) == 0
+    assert main(["analyse", "accuracy", "aggregate", str(table), "--config-json", '{"a": 1}',
+                 "--out", str(out), "--summary", str(tmp_path / "summary.md")]) == 0
     with xr.open_dataset(out, engine="netcdf4") as ds:
         points = acc.points_frame(ds.load(), "point")
         assert ds.attrs["config_json"] == '{"a": 1}'
     power = points[points["observable"] == "net_power"]
     assert power["reference_method"].iloc[0] == "richardson"
     assert power["reference"].iloc[0] == pytest.approx(1.315, abs=1e-9)
-    assert acc.main(["plot", "stirred_mill", str(out), "--out", str(tmp_path / "f.png")]) == 0
-    assert acc.main(["collect", paths[0], "--name", "x", "--series", "y", "--ladder",
-                     "steps_per_contact", "--out", str(table)]) == 2
+    assert ds.attrs["Conventions"] == "CF-1.8"  # the one netCDF writer
+    assert main(["analyse", "accuracy", "summary", str(out)]) == 0
+    assert main(["plot", "error_vs_runtime_stirred_mill", str(out),
+                 "--out", str(tmp_path / "f.png")]) == 0
+    assert main(["analyse", "accuracy", "collect", paths[0], "--name", "x", "--series", "y",
+                 "--ladder", "dt_factor", "--out", str(table)]) == 2
 
 
 # ---- the Snakemake target -----------------------------------------------------------------------
@@ -256,9 +260,9 @@ TINY = {
                            "transient": 0.01},
             "seed": [1, 2],
             "series": {
-                "gear": {"set": {"integrator": "gear"}, "ladder": {"steps_per_contact": [50, 25]}},
+                "gear": {"set": {"integrator": "gear"}, "ladder": {"dt_factor": [0.5, 1.0]}},
                 "verlet": {"set": {"integrator": "verlet"},
-                           "ladder": {"steps_per_contact": [25, 10]}, "reference": "gear"},
+                           "ladder": {"dt_factor": [1.0, 2.5]}, "reference": "gear"},
             },
         },
         "stirred_mill": {
@@ -300,7 +304,9 @@ def test_accuracy_target_dry_run(tmp_path):
     assert counts["simulate_accuracy_stirred_mill_wet"] == 2
     assert counts["accuracy_collect"] == 3 and counts["aggregate_accuracy"] == 1
     assert counts["plot_accuracy"] == 2
-    assert "results/cases/accuracy_ballmill_verlet/steps_per_contact~10/seed~2/case.nc" in text
+    assert "results/cases/accuracy_ballmill_verlet/dt_factor~2.5/seed~2/case.nc" in text
+    assert "millsim analyse accuracy aggregate" in text
+    assert "millsim plot error_vs_runtime_stirred_mill" in text
     assert "--reference ballmill/verlet=gear" in text
     assert "results/plots/error_vs_runtime_stirred_mill.png" in text
     # the default target does not run the accuracy study
@@ -315,6 +321,8 @@ def test_accuracy_target_dry_run(tmp_path):
     (("ballmill", "series", "verlet", "reference"), "rk4", "rk4"),
     (("ballmill", "series", "gear", "ladder"), {"steps_per_contact": [5, 25]}, "steps_per_contact"),
     (("ballmill", "series", "gear", "ladder"), {"duration": [1, 2]}, "duration"),
+    # the scene's own declaration refuses it (ranges and choices live there), before any job
+    (("ballmill", "series", "gear", "set"), {"integrator": "rk4"}, "integrator"),
 ])
 def test_bad_accuracy_config_is_refused(tmp_path, where, value, named):
     config = yaml.safe_load(yaml.safe_dump(TINY))

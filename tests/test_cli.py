@@ -1,4 +1,5 @@
-"""The command line: help, scene listing, a real run to a self-describing file, and bad input."""
+"""The command line: help, scene listing, a real run to a self-describing file, bad input, and the
+analyses' bad input."""
 
 import subprocess
 import sys
@@ -13,6 +14,16 @@ def test_help_and_scenes(capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["--help"])
     assert exit_info.value.code == 0
+    # one front door: every stage of the pipeline is a subcommand
+    out = capsys.readouterr().out
+    for command in ("scenes", "run", "info", "aggregate", "plot", "analyse"):
+        assert command in out
+    with pytest.raises(SystemExit) as exit_info:
+        main(["analyse", "--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    for study in ("accuracy", "stirred-mill", "tavares"):
+        assert study in out
     assert main(["scenes"]) == 0
     out = capsys.readouterr().out
     for scene in ("collision", "packing", "ballmill2d"):
@@ -64,6 +75,20 @@ def test_unknown_scene_from_a_real_process(tmp_path):
     assert proc.returncode == 2
     assert "scene: unknown scene 'nosuchscene'" in proc.stderr
     assert not out.exists()
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["analyse", "stirred-mill", "friction", "nosuch.nc", "--reference", "r.csv", "--table", "t.csv",
+      "--summary", "s.csv", "--choice", "c.json"], "nosuch.nc"),
+    (["analyse", "tavares", "aggregate", "nosuch.nc", "--out", "t.nc"], "nosuch.nc"),
+    (["analyse", "accuracy", "aggregate", "nosuch.csv", "--out", "a.nc"], "nosuch.csv"),
+])
+def test_analyse_bad_input_one_line_and_no_file(tmp_path, monkeypatch, capsys, args, needle):
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert needle in err and len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("container", ["box", "drum"])

@@ -1,4 +1,5 @@
-"""Aggregation and figures on synthetic ball-mill case files (no simulation needed)."""
+"""Aggregation and figures on synthetic ball-mill case files (no simulation needed), and the plot
+registry behind `millsim plot`."""
 
 import numpy as np
 import pytest
@@ -7,7 +8,8 @@ import xarray as xr
 from millsim.analysis.aggregate import aggregate, swept_parameters
 from millsim.cli import main
 from millsim.io import SnapshotWriter, read_case, write_case
-from millsim.plots import bond_austin_speed_factor
+from millsim.plots import PLOTS, find
+from millsim.plots.ballmill import bond_austin_speed_factor
 
 DRUM = 0.05
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -177,3 +179,33 @@ def test_animation_is_a_gif_with_one_frame_per_snapshot(tmp_path):
     assert main(["plot", "animation", str(tmp_path / "snap.h5"), "--out", str(out)]) == 0
     with Image.open(out) as gif:
         assert gif.format == "GIF" and gif.n_frames == 4
+
+
+def test_registry_lists_every_figure_once_with_a_drawing_function(capsys):
+    assert main(["plot", "--list"]) == 0
+    rows = [line.split("\t") for line in capsys.readouterr().out.splitlines()]
+    assert [name for name, _, _ in rows] == list(PLOTS)
+    for name, source, caption in rows:
+        kind, _, dataset = source.partition(":")
+        assert kind in ("aggregate", "table", "snapshots") and bool(dataset) == (kind != "snapshots")
+        assert len(caption) > 40, name
+        assert callable(PLOTS[name].function())
+    # the figures the pipeline draws, by study
+    names = set(PLOTS)
+    assert {"ballmill_rate", "ballmill_force_chains", "animation", "bed_broken_mass",
+            "tavares_probability", "stirred_mill_power", "stirred_mill_friction",
+            "error_vs_runtime_{name}"} <= names
+
+
+def test_a_family_name_passes_its_field():
+    entry, fields = find("error_vs_runtime_stirred_mill")
+    assert entry.name == "error_vs_runtime_{name}" and fields == {"name": "stirred_mill"}
+    assert find("ballmill_rate") == (PLOTS["ballmill_rate"], {})
+    with pytest.raises(ValueError, match="kind: unknown plot 'error_vs_runtime_'"):
+        find("error_vs_runtime_")
+
+
+def test_plot_needs_a_figure_or_list(tmp_path, capsys):
+    assert main(["plot", "ballmill_rate"]) == 2
+    assert "plot: give KIND INPUT --out FILE, or --list" in capsys.readouterr().err
+    assert main(["plot", "--list", "ballmill_rate"]) == 2

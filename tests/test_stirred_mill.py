@@ -180,7 +180,9 @@ def test_bad_input_is_refused(override, match):
         SCENE.resolve({k: str(v) for k, v in override.items()})
 
 
-def test_bad_config_is_refused_by_the_schema():
+def test_bad_config_is_refused_by_the_schema_or_the_scene():
+    """The schema checks the structure; the ranges are the scene's (declared once), which the
+    pipeline applies to every case before any job (test_pipeline_refuses_bad_stirred_input...)."""
     import yaml
     from snakemake.exceptions import WorkflowError
     from snakemake.utils import validate
@@ -190,12 +192,16 @@ def test_bad_config_is_refused_by_the_schema():
     with open(os.path.join(root, "config", "config.yaml")) as fh:
         config = yaml.safe_load(fh)
     validate(dict(config), schema)
-    for block, key, bad in (("power", "eta", [-0.1, 0.1]), ("power", "rpm", [0, 1000]),
-                            ("parameters", "filling", 0.8)):
+    for block, key, bad in (("power", "eta", "thick"), ("power", "rpm", []),
+                            ("calibration", "friction", [0.3]), ("parameters", "rpm", 1000),
+                            ("power", "speed", 1000)):
         broken = json.loads(json.dumps(config))
         broken["stirred_mill"][block][key] = bad
         with pytest.raises(WorkflowError):
             validate(broken, schema)
+    for key, bad in (("eta", -0.1), ("rpm", 0), ("filling", 0.8)):
+        with pytest.raises(ValueError, match=key):
+            SCENE.resolve({key: str(bad)})
 
 
 # ------------------------------------------------------------------------------------------------

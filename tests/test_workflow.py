@@ -120,3 +120,14 @@ def test_bad_config_is_refused_before_any_job(workdir, path, value, named):
     where = text.split("Failed validating")[0] + "".join(re.findall(r"On instance\S*", text))
     assert named in where
     assert not (workdir / "results").exists()
+
+
+def test_every_rule_calls_millsim():
+    """One front door: the shell command of every rule is a `millsim` command."""
+    rules = [*sorted((ROOT / "workflow" / "rules").glob("*.smk")), ROOT / "Snakefile"]
+    commands = [(path.name, m.group(1)) for path in rules
+                for m in re.finditer(r'shell:\s*\n\s*f?"([^"]*)"', path.read_text())]
+    assert len(commands) >= 15
+    wrong = [f"{name}: {cmd}" for name, cmd in commands if not cmd.startswith("millsim ")]
+    assert not wrong, "\n".join(wrong)
+    assert not any("python" in path.read_text() for path in rules if path.suffix == ".smk")

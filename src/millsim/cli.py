@@ -1,6 +1,8 @@
-"""The ``millsim`` command line: list scenes, run one case to a netCDF file, describe a case file.
+"""The ``millsim`` command line, the one front door of every pipeline stage: list scenes, run one
+case to a netCDF file, describe a case file, stack cases into an aggregate, analyse a study
+(``millsim analyse STUDY STAGE``) and draw a figure of the plot registry.
 
-Every pipeline stage calls this, so any stage can be re-run by hand with the same command.
+Every pipeline rule calls this, so any stage can be re-run by hand with the same command.
 Bad input ends with exit code 2, one line naming the key and its allowed range, and no output file.
 """
 
@@ -11,11 +13,12 @@ from pathlib import Path
 import millsim
 
 
-def _parse_sets(pairs):
+def _parse_sets(pairs, option="--set"):
+    """KEY=VALUE arguments of a repeatable option as a dict of strings."""
     out = {}
     for item in pairs or ():
         if "=" not in item:
-            raise ValueError(f"--set: expected key=value, got {item!r}")
+            raise ValueError(f"{option}: expected key=value, got {item!r}")
         key, value = item.split("=", 1)
         out[key.strip()] = value.strip()
     return out
@@ -38,6 +41,7 @@ def cmd_scenes(args):
 
 
 def cmd_run(args):
+    from .io import SnapshotWriter
     from .scenes.base import RunContext, get_scene
 
     scene = get_scene(args.scene)
@@ -45,24 +49,18 @@ def cmd_run(args):
     out = Path(args.out)
     if out.suffix != ".nc":
         raise ValueError(f"--out: must end in .nc, got {str(out)!r}")
-    if args.threads:
-        import numba
-
-        numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
-    from .io import SnapshotWriter, write_case
-
+    if args.threads is not None and args.threads < 1:
+        raise ValueError(f"--threads: must be >= 1, got {args.threads}")
     snapshots = SnapshotWriter(args.snapshots, dim=values.get("dim", 3)) if args.snapshots else None
+    ctx = RunContext(progress=not args.quiet, snapshots=snapshots, threads=args.threads)
     try:
-        data, info = scene.run(values, RunContext(progress=not args.quiet, snapshots=snapshots))
+        _, provenance = scene.run(values, ctx, out=out)
     finally:
         if snapshots is not None:
             snapshots.close()
-    provenance = {"scene": scene.name, "parameters": values, "seed": info.seed, "dt": info.dt,
-                  "steps": info.steps, "wall_time_s": info.wall_time_s, **info.extra}
-    write_case(out, data, provenance)
     if not args.quiet:
-        print(f"[millsim] wrote {out} ({info.steps} steps, dt = {info.dt:.4g} s, "
-              f"{info.wall_time_s:.1f} s)", file=sys.stderr)
+        print(f"[millsim] wrote {out} ({provenance['steps']} steps, dt = {provenance['dt']:.4g} s, "
+              f"{provenance['wall_time_s']:.1f} s)", file=sys.stderr)
     return 0
 
 
@@ -88,21 +86,201 @@ def cmd_info(args):
 
 
 def cmd_aggregate(args):
-    from .analysis.aggregate import aggregate, write_aggregate
+    from .analysis.aggregate import aggregate
+    from .io import write_netcdf
     from .scenes.base import get_scene
 
     scene = get_scene(args.scene)
     # the scene declares each parameter once; its units label the stacking coordinates
     attrs = {p.name: {"units": p.units, "long_name": p.doc} for p in scene.params}
-    write_aggregate(aggregate(scene.name, args.cases, args.over, attrs), args.out)
+    write_netcdf(args.out, aggregate(scene.name, args.cases, args.over, attrs))
     return 0
 
 
 def cmd_plot(args):
-    from .plots import plot
+    from . import plots
 
-    plot(args.kind, args.input, args.out)
+    if args.list:
+        if args.kind or args.input or args.out:
+            raise ValueError("--list: takes no figure, input or --out")
+        print(plots.listing())
+        return 0
+    if not (args.kind and args.input and args.out):
+        raise ValueError("plot: give KIND INPUT --out FILE, or --list")
+    plots.plot(args.kind, args.input, args.out)
     return 0
+
+
+# ---- millsim analyse STUDY STAGE ----------------------------------------------------------------
+
+def _write_json(path, obj):
+    import json
+
+    with open(path, "w") as fh:
+        json.dump(obj, fh, indent=2, sort_keys=True)
+        fh.write("\n")
+
+
+def _read_json(path):
+    import json
+
+    with open(path) as fh:
+        return json.load(fh)
+
+
+def cmd_accuracy_collect(args):
+    from .analysis import accuracy
+
+    table = accuracy.collect(args.cases, args.name, args.series, args.ladder)
+    table.to_csv(args.out, index=False)
+    print(f"{args.name}/{args.series}: {table['path'].nunique()} cases, "
+          f"{table['observable'].nunique()} observables")
+
+
+def cmd_accuracy_aggregate(args):
+    import pandas as pd
+
+    from .analysis import accuracy
+    from .io import write_netcdf
+
+    cases = pd.concat([pd.read_csv(p) for p in args.tables], ignore_index=True)
+    links = {tuple(k.split("/", 1)): v for k, v in _parse_sets(args.reference, "--reference").items()}
+    decide = {k: v.split(",") for k, v in _parse_sets(args.decide, "--decide").items()}
+    ds, text = accuracy.study(cases, args.tolerance, links, _parse_sets(args.method, "--method"), decide,
+                              args.limit_fraction, args.config_json)
+    write_netcdf(args.out, ds)
+    if args.summary:
+        Path(args.summary).write_text(text)
+    print(text)
+
+
+def cmd_accuracy_summary(args):
+    from .analysis import accuracy
+    from .io import read_case
+
+    ds = read_case(args.input)
+    print(accuracy.summary_markdown(accuracy.points_frame(ds, "point"),
+                                    accuracy.points_frame(ds, "choice")))
+
+
+def cmd_stirred_friction(args):
+    from .analysis import stirred_mill as sm
+
+    table, summary, choice = sm.calibrate_friction(sm.case_table(args.cases),
+                                                   sm.read_reference(args.reference))
+    table.to_csv(args.table, index=False)
+    summary.to_csv(args.summary, index=False)
+    _write_json(args.choice, choice)
+    print(f"stage 1: friction = {choice['friction']:g} (refined {choice['friction_refined']:.4g})")
+
+
+def cmd_stirred_viscosity(args):
+    from .analysis import stirred_mill as sm
+
+    friction = _read_json(args.friction)["friction"]
+    table, choice = sm.calibrate_viscosity(sm.case_table(args.cases),
+                                           sm.read_reference(args.reference), friction, args.rpm)
+    table.to_csv(args.table, index=False)
+    _write_json(args.choice, dict(friction=friction, rpm=args.rpm, fluids=choice))
+    for fluid, c in choice.items():
+        print(f"stage 2: {fluid}: eta_sim = {c['eta_sim']:g} Pa s "
+              f"(refined {c['eta_sim_refined']:.4g})")
+
+
+def cmd_stirred_predict(args):
+    from .analysis import stirred_mill as sm
+
+    visc = _read_json(args.viscosity)
+    etas = {f: c["eta_sim"] for f, c in visc["fluids"].items()}
+    table = sm.predict(sm.case_table(args.cases), sm.read_reference(args.reference),
+                       visc["friction"], etas)
+    table.to_csv(args.table, index=False)
+
+
+def cmd_tavares_aggregate(args):
+    from .analysis import tavares_verification as tv
+    from .io import write_netcdf
+
+    ds = tv.aggregate(args.cases)
+    write_netcdf(args.out, ds)
+    print("\n".join(tv.summary(ds)))
+
+
+def cmd_tavares_summary(args):
+    from .analysis import tavares_verification as tv
+    from .io import read_case
+
+    print("\n".join(tv.summary(read_case(args.input))))
+
+
+def _analyse_parser(sub):
+    """``millsim analyse STUDY STAGE``: the analyses over case files (millsim.analysis)."""
+    analyse = sub.add_parser("analyse", help="analyse a study's case files (accuracy, stirred-mill "
+                             "calibration, Tavares verification)")
+    studies = analyse.add_subparsers(dest="study", required=True, metavar="STUDY")
+
+    acc = studies.add_parser("accuracy", help="error against run time (work-precision)")
+    stages = acc.add_subparsers(dest="stage", required=True, metavar="STAGE")
+    p = stages.add_parser("collect", help="one series' cases -> long table (CSV)")
+    p.add_argument("cases", nargs="+")
+    p.add_argument("--name", required=True, help="study name (ballmill, stirred_mill, ...)")
+    p.add_argument("--series", required=True)
+    p.add_argument("--ladder", required=True, help="the swept step parameter")
+    p.add_argument("--out", required=True)
+    p.set_defaults(func=cmd_accuracy_collect)
+    p = stages.add_parser("aggregate", help="series tables -> accuracy.nc (+ markdown summary)")
+    p.add_argument("tables", nargs="+")
+    p.add_argument("--tolerance", type=float, default=0.01)
+    p.add_argument("--limit-fraction", type=float, default=1.0,
+                   help="a chosen step stays <= this fraction of the stability limit")
+    p.add_argument("--reference", action="append", metavar="NAME/SERIES=OTHER",
+                   help="series compared with the reference of another series of that name")
+    p.add_argument("--method", action="append", metavar="NAME=METHOD",
+                   help="reference method per name: auto | finest | richardson")
+    p.add_argument("--decide", action="append", metavar="NAME=OBS,OBS",
+                   help="observables that decide the default step (default: headline ones)")
+    p.add_argument("--config-json", default="", help="the study's config, recorded as attribute")
+    p.add_argument("--out", required=True)
+    p.add_argument("--summary", help="markdown summary file")
+    p.set_defaults(func=cmd_accuracy_aggregate)
+    p = stages.add_parser("summary", help="print the markdown tables of accuracy.nc")
+    p.add_argument("input")
+    p.set_defaults(func=cmd_accuracy_summary)
+
+    stirred = studies.add_parser("stirred-mill", help="stirred-mill power-draw calibration stages")
+    stages = stirred.add_subparsers(dest="stage", required=True, metavar="STAGE")
+    p = stages.add_parser("friction", help="stage 1: friction from dry power vs speed")
+    p.add_argument("cases", nargs="+")
+    p.add_argument("--reference", required=True)
+    p.add_argument("--table", required=True, help="residuals per case (CSV)")
+    p.add_argument("--summary", required=True, help="sum of squared residuals per friction (CSV)")
+    p.add_argument("--choice", required=True, help="chosen friction (JSON)")
+    p.set_defaults(func=cmd_stirred_friction)
+    p = stages.add_parser("viscosity", help="stage 2: eta_sim per fluid at one speed")
+    p.add_argument("cases", nargs="+")
+    p.add_argument("--reference", required=True)
+    p.add_argument("--friction", required=True, help="stage 1 choice (JSON)")
+    p.add_argument("--rpm", type=float, required=True)
+    p.add_argument("--table", required=True)
+    p.add_argument("--choice", required=True)
+    p.set_defaults(func=cmd_stirred_viscosity)
+    p = stages.add_parser("predict", help="stage 3: power curves at the calibrated mu and eta_sim")
+    p.add_argument("cases", nargs="+")
+    p.add_argument("--reference", required=True)
+    p.add_argument("--viscosity", required=True, help="stage 2 choice (JSON)")
+    p.add_argument("--table", required=True)
+    p.set_defaults(func=cmd_stirred_predict)
+
+    tav = studies.add_parser("tavares", help="Tavares single-particle verification")
+    stages = tav.add_subparsers(dest="stage", required=True, metavar="STAGE")
+    p = stages.add_parser("aggregate", help="single_particle cases -> verification aggregate "
+                          "(with the pass-rule results)")
+    p.add_argument("cases", nargs="+")
+    p.add_argument("--out", required=True)
+    p.set_defaults(func=cmd_tavares_aggregate)
+    p = stages.add_parser("summary", help="print the pass-rule results of an aggregate")
+    p.add_argument("input")
+    p.set_defaults(func=cmd_tavares_summary)
 
 
 def build_parser():
@@ -120,7 +298,10 @@ def build_parser():
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--out", required=True, help="output case file (.nc)")
     p.add_argument("--snapshots", help="optional particle snapshots (.h5, with an .xdmf sidecar)")
-    p.add_argument("--threads", type=int, default=0, help="numba threads (default: all)")
+    p.add_argument("--threads", type=int, default=None,
+                   help="threads of the compiled step loop (default: all numba has); systems of "
+                        "fewer than 2000 particles run on one thread, which is faster there "
+                        "(bench/RESULTS.md, serial fallback); results are identical either way")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_run)
 
@@ -136,20 +317,29 @@ def build_parser():
     p.add_argument("--out", required=True, help="output aggregate (.nc)")
     p.set_defaults(func=cmd_aggregate)
 
-    p = sub.add_parser("plot", help="draw a figure from an aggregate, or a GIF from snapshots")
-    p.add_argument("kind", help="ballmill_rate | ballmill_size_distributions | "
-                   "ballmill_fragmentation_maps | ballmill_pressure_maps | ballmill_force_chains | "
-                   "animation")
-    p.add_argument("input", help="aggregate (.nc), or snapshots (.h5) for animation")
-    p.add_argument("--out", required=True, help="output figure (.png, .gif for animation)")
+    p = sub.add_parser("plot", help="draw a figure of the plot registry (`millsim plot --list`)")
+    p.add_argument("kind", nargs="?", help="figure name (see --list)")
+    p.add_argument("input", nargs="?", help="what the figure is drawn from: an aggregate (.nc), a "
+                   "calibration table (.csv) or snapshots (.h5), as --list says")
+    p.add_argument("--out", help="output figure (.png, .gif for animation)")
+    p.add_argument("--list", action="store_true",
+                   help="print the registry: name, input, caption (tab-separated)")
     p.set_defaults(func=cmd_plot)
+
+    _analyse_parser(sub)
     return parser
 
 
 def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args)
+        return args.func(args) or 0
+    except KeyError as exc:
+        if args.command != "analyse":
+            raise
+        # a column or variable the analysis needs is missing from its input
+        print(f"millsim: error: missing {exc}", file=sys.stderr)
+        return 2
     except (ValueError, FileNotFoundError) as exc:
         print(f"millsim: error: {exc}", file=sys.stderr)
         return 2

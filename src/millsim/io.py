@@ -1,7 +1,8 @@
-"""Case output (netCDF4 via xarray) and optional particle snapshots (HDF5 + XDMF).
+"""netCDF output (one writer for cases, aggregates and analysis results) and optional particle
+snapshots (HDF5 + XDMF).
 
 All quantities are SI; every variable carries a CF-style ``units`` attribute ("1" when
-dimensionless). The run's provenance goes into global attributes so that a case file alone says
+dimensionless). A case's provenance goes into global attributes so that a case file alone says
 how it was produced.
 """
 
@@ -26,7 +27,7 @@ import xarray as xr
 
 import millsim
 
-__all__ = ["write_case", "read_case", "case_parameters", "SnapshotWriter"]
+__all__ = ["write_netcdf", "write_case", "read_case", "case_parameters", "SnapshotWriter"]
 
 # key -> coercion; coercing also rejects e.g. a float seed instead of silently truncating it
 _REQUIRED_PROVENANCE = {
@@ -133,11 +134,15 @@ def _provenance_attrs(provenance: dict[str, Any]) -> dict[str, Any]:
     return attrs
 
 
-def write_case(path: str | os.PathLike[str], data: xr.Dataset, provenance: dict[str, Any]) -> Path:
-    """Write one case to netCDF4 atomically: ``path`` is either complete or untouched.
+def write_netcdf(path: str | os.PathLike[str], data: xr.Dataset,
+                 attrs: dict[str, Any] | None = None) -> Path:
+    """Write any dataset to netCDF4 atomically (``path`` is either complete or untouched), CF-style.
 
-    Every data variable and coordinate needs a ``units`` attribute. ``provenance`` needs the keys
-    scene, parameters, seed, dt (s), steps and wall_time_s; further keys are stored as they are.
+    The one netCDF writer of millsim: case files, aggregates and analysis outputs all go through
+    it. Every data variable and coordinate needs a ``units`` attribute ("1" if dimensionless);
+    coordinates get no fill value (CF forbids missing values there); attributes are made
+    netCDF-legal. The global attributes are ``data.attrs`` updated by ``attrs``, plus
+    ``Conventions`` and ``created_utc``.
     """
     path = Path(path)
     for name, variable in data.variables.items():
@@ -154,16 +159,27 @@ def write_case(path: str | os.PathLike[str], data: xr.Dataset, provenance: dict[
             # CF forbids missing values in coordinates; xarray would add a NaN _FillValue to floats
             variable.encoding = {"_FillValue": None, **variable.encoding}
     ds.attrs = {
-        # param_* of a re-written case would be stale if its parameters changed
-        **{k: _attr_value(k, v) for k, v in data.attrs.items() if not k.startswith("param_")},
-        **_provenance_attrs(provenance),
-        **_software_attrs(),
+        **{k: _attr_value(k, v) for k, v in data.attrs.items()},
+        **{k: _attr_value(k, v) for k, v in (attrs or {}).items()},
         "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "Conventions": "CF-1.8",
     }
     with _atomic_target(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4")
     return path
+
+
+def write_case(path: str | os.PathLike[str], data: xr.Dataset, provenance: dict[str, Any]) -> Path:
+    """Write one case with its provenance (:func:`write_netcdf`, atomic).
+
+    ``provenance`` needs the keys scene, parameters, seed, dt (s), steps and wall_time_s; further
+    keys are stored as they are. The software versions and the engine hash are added.
+    """
+    attrs = {**_provenance_attrs(provenance), **_software_attrs()}
+    data = data.copy(deep=False)
+    # param_* of a re-written case would be stale if its parameters changed
+    data.attrs = {k: v for k, v in data.attrs.items() if not k.startswith("param_")}
+    return write_netcdf(path, data, attrs)
 
 
 def read_case(path: str | os.PathLike[str]) -> xr.Dataset:

@@ -10,7 +10,8 @@
 #   results/cases/accuracy_<name>_<series>/<ladder>~<v>/seed~<s>/case.nc
 # then one table per series (results/accuracy/<name>/<series>.csv), the aggregate
 # results/aggregate/accuracy.nc (+ results/accuracy/summary.md), and one figure per scene
-# results/plots/error_vs_runtime_<name>.png. The analysis: millsim.analysis.accuracy.
+# results/plots/error_vs_runtime_<name>.png. The analysis: `millsim analyse accuracy`
+# (millsim.analysis.accuracy); the figures: `millsim plot error_vs_runtime_<name>`.
 
 import json
 
@@ -125,7 +126,7 @@ rule accuracy_collect:
     params:
         ladder=lambda wc: ACCURACY_STUDIES[f"accuracy_{wc.subject}_{wc.series}"][3],
     shell:
-        "python -m millsim.analysis.accuracy collect {input.cases} --name {wildcards.subject}"
+        "millsim analyse accuracy collect {input.cases} --name {wildcards.subject}"
         " --series {wildcards.series} --ladder {params.ladder} --out {output} > {log} 2>&1"
 
 
@@ -143,10 +144,16 @@ rule aggregate_accuracy:
         options=accuracy_options(),
         config=shlex.quote(json.dumps(ACCURACY, sort_keys=True)),
     shell:
-        "python -m millsim.analysis.accuracy aggregate {input} --tolerance {params.tolerance}"
+        "millsim analyse accuracy aggregate {input} --tolerance {params.tolerance}"
         " --limit-fraction {params.limit_fraction} {params.options}"
         " --config-json {params.config} --out {output.data}"
         " --summary {output.summary} > {log} 2>&1"
+
+
+# one figure per name, of the registry's family error_vs_runtime_{name}
+ACCURACY_FIGURE = "error_vs_runtime_{name}"
+if ACCURACY_FIGURE not in PLOTS:
+    raise ValueError(f"`millsim plot --list` has no {ACCURACY_FIGURE!r}")
 
 
 rule plot_accuracy:
@@ -155,17 +162,18 @@ rule plot_accuracy:
     output:
         report(
             "results/plots/error_vs_runtime_{subject}.png",
-            caption="../report/accuracy_plot.rst",
+            caption="../report/plot.rst",
             category="Accuracy: error against run time",
             labels={"scene": "{subject}"},
         ),
     log:
         "results/logs/plot_accuracy/{subject}.log",
+    params:
+        caption=PLOTS[ACCURACY_FIGURE].caption,
     wildcard_constraints:
         subject="|".join(ACCURACY_NAMES) or "none",
     shell:
-        "python -m millsim.analysis.accuracy plot {wildcards.subject} {input} --out {output}"
-        " > {log} 2>&1"
+        "millsim plot error_vs_runtime_{wildcards.subject} {input} --out {output} > {log} 2>&1"
 
 
 rule accuracy:

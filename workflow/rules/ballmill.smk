@@ -81,22 +81,28 @@ use rule aggregate_ballmill as aggregate_ballmill_forcechain with:
         over=stack_over("ballmill_forcechain"),
 
 
+# figures of the registry drawn from the two ball-mill aggregates (results/plots/<figure>.png)
+BALLMILL_FIGURES = figures("ballmill", "ballmill_forcechain")
+
+
 rule plot_ballmill:
     input:
-        plot_source,
+        figure_input,
     output:
         report(
-            "results/plots/ballmill_{kind}.png",
-            caption="../report/ballmill_plot.rst",
+            "results/plots/{figure}.png",
+            caption="../report/plot.rst",
             category="Ball mill 2D",
-            labels={"figure": "{kind}"},
+            labels={"figure": "{figure}"},
         ),
     log:
-        "results/logs/plot_ballmill/{kind}.log",
+        "results/logs/plot_ballmill/{figure}.log",
+    params:
+        caption=figure_caption,
     wildcard_constraints:
-        kind="|".join(BALLMILL_PLOTS),
+        figure="|".join(BALLMILL_FIGURES),
     shell:
-        "millsim plot ballmill_{wildcards.kind} {input} --out {output} > {log} 2>&1"
+        "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 
 
 rule animate_ballmill:
@@ -105,11 +111,13 @@ rule animate_ballmill:
     output:
         report(
             f"results/plots/ballmill_animation/{case_label('ballmill_animation')}.gif",
-            caption="../report/ballmill_animation.rst",
+            caption="../report/plot.rst",
             category="Ball mill 2D",
             labels={"figure": "animation", "case": case_label("ballmill_animation")},
         ),
     log:
         case_log("animate_ballmill", "ballmill_animation"),
+    params:
+        caption=PLOTS["animation"].caption,
     shell:
         "millsim plot animation {input} --out {output} > {log} 2>&1"

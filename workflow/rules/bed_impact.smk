@@ -12,7 +12,7 @@ localrules:
 
 
 BED_IMPACT_OVER = ["material", "rings", "layers", "impact_energy", "seed"]
-BED_IMPACT_PLOTS = ["broken_mass", "capture_radius", "size_energy", "size_configuration"]
+BED_IMPACT_FIGURES = figures("bed_breakage")
 
 
 def bed_impact_study():
@@ -21,26 +21,21 @@ def bed_impact_study():
     block = config["bed_impact"]
     fixed = dict(block.get("parameters") or {})
     rows = []
-    for k, sweep in enumerate(block["sweeps"]):
+    for sweep in block["sweeps"]:
         values = {name: sweep[name] for name in BED_IMPACT_OVER}
         grid = pd.MultiIndex.from_product(
             [v if isinstance(v, list) else [v] for v in values.values()], names=BED_IMPACT_OVER
         ).to_frame(index=False)
         rows.append(grid)
-    grid = (
-        pd.concat(rows, ignore_index=True)
-        .astype({"rings": int, "layers": int, "seed": int, "impact_energy": float})
-        .drop_duplicates(ignore_index=True)
-    )
-    study = Study(Paramspace(grid), {k: str(v) for k, v in fixed.items()})
-    for row in grid.itertuples(index=False):
-        try:
-            get_scene("bed_impact").resolve(
-                {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
-            )
-        except ValueError as exc:
-            raise ValueError(f"config bed_impact: {exc}") from None
-    return study
+    fixed = {k: str(v) for k, v in fixed.items()}
+    given = pd.concat(rows, ignore_index=True)
+    # the scene checks the values as given (a rings of 1.5 must be refused, not cast to 1) ...
+    checked_study("bed_impact", "bed_impact", Study(Paramspace(given), fixed))
+    # ... and the case paths write them in one form whatever the block (3 and 3.0 are one case)
+    grid = given.astype(
+        {"rings": int, "layers": int, "seed": int, "impact_energy": float}
+    ).drop_duplicates(ignore_index=True)
+    return Study(Paramspace(grid), fixed)
 
 
 STUDIES["bed_impact"] = bed_impact_study()
@@ -76,27 +71,29 @@ rule aggregate_bed_impact:
 
 rule plot_bed_impact:
     input:
-        "results/aggregate/bed_breakage.nc",
+        figure_input,
     output:
         report(
-            "results/plots/bed_{kind}.png",
-            caption="../report/bed_impact_plot.rst",
+            "results/plots/{figure}.png",
+            caption="../report/plot.rst",
             category="Bed impact 3D",
-            labels={"figure": "{kind}"},
+            labels={"figure": "{figure}"},
         ),
     log:
-        "results/logs/plot_bed_impact/{kind}.log",
+        "results/logs/plot_bed_impact/{figure}.log",
+    params:
+        caption=figure_caption,
     wildcard_constraints:
-        kind="|".join(BED_IMPACT_PLOTS),
+        figure="|".join(BED_IMPACT_FIGURES),
     shell:
-        "millsim plot bed_{wildcards.kind} {input} --out {output} > {log} 2>&1"
+        "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 
 
 def bed_impact_targets():
     """What `rule all` asks of this scene."""
     return [
         "results/aggregate/bed_breakage.nc",
-        *(f"results/plots/bed_{kind}.png" for kind in BED_IMPACT_PLOTS),
+        *(f"results/plots/{figure}.png" for figure in BED_IMPACT_FIGURES),
     ]
 
 

@@ -1,18 +1,25 @@
-"""Configuration: validation, the cases of every study, and the paths the rules share.
+"""Configuration: validation, the cases of every study, the figures, and the paths the rules share.
 
 A study is one scene run over a parameter space: fixed parameters plus the Cartesian product of
 the swept ones (those given as lists). Case paths encode the swept values, e.g.
 results/cases/ballmill/n_over_nc~0.5/case.nc; fixed parameters reach the jobs as params, so a
 change of either re-runs exactly the affected cases.
+
+Parameter ranges are declared once, by the scenes: the schema checks only the config's structure,
+and every case of every study is resolved by its scene (`millsim scenes NAME` lists the ranges)
+before any job starts. The figures and their captions come from the plot registry
+(`millsim plot --list`); figure NAME is results/plots/NAME.png.
 """
 
 import os
 import shlex
+import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
+from snakemake.exceptions import WorkflowError
 from snakemake.utils import Paramspace, validate
 
 import millsim
@@ -51,11 +58,17 @@ def make_study(block, scene, values, stack_over, **pinned):
         [values[k] if isinstance(values[k], list) else [values[k]] for k in swept],
         names=swept,
     ).to_frame(index=False)
-    study = Study(
-        Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}
+    return checked_study(
+        block,
+        scene,
+        Study(Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}),
     )
+
+
+def checked_study(block, scene, study):
+    """``study`` once its scene has resolved every case (the parameter ranges live there)."""
     # str() of each value, exactly as Paramspace writes it into the case path
-    for row in grid.itertuples(index=False):
+    for row in study.space.dataframe.itertuples(index=False):
         try:
             get_scene(scene).resolve(
                 {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
@@ -85,16 +98,6 @@ STUDIES = {
     "ballmill_forcechain": ballmill_study("forcechain", fragmentation=False),
     "ballmill_animation": ballmill_study("animation", fragmentation=True),
 }
-
-# figure -> the aggregate it is drawn from (results/plots/ballmill_<figure>.png)
-BALLMILL_PLOTS = {
-    "rate": "ballmill",
-    "size_distributions": "ballmill",
-    "fragmentation_maps": "ballmill",
-    "pressure_maps": "ballmill_forcechain",
-    "force_chains": "ballmill_forcechain",
-}
-
 
 def case_file(study, name="case.nc"):
     """Path pattern of one file of a case, with one wildcard per swept parameter."""
@@ -135,8 +138,52 @@ def stack_over(study):
     return " ".join(f"--over {k}" for k in STUDIES[study].space.dataframe.columns)
 
 
-def plot_source(wildcards):
-    return f"results/aggregate/{BALLMILL_PLOTS[wildcards.kind]}.nc"
+@dataclass(frozen=True)
+class Figure:
+    input: str  # aggregate:<dataset> | table:<dataset> | snapshots
+    caption: str
+
+
+def plot_registry():
+    """The plot registry as `millsim plot --list` prints it: figure name -> Figure."""
+    run = subprocess.run(["millsim", "plot", "--list"], capture_output=True, text=True)
+    if run.returncode:
+        raise WorkflowError(f"`millsim plot --list` failed: {run.stderr.strip()}")
+    listing = run.stdout
+    return {
+        name: Figure(source, caption)
+        for name, source, caption in (
+            line.split("\t", 2) for line in listing.splitlines() if line
+        )
+    }
+
+
+PLOTS = plot_registry()
+# where the pipeline keeps what a figure is drawn from
+PLOT_INPUTS = {
+    "aggregate": "results/aggregate/{}.nc",
+    "table": "results/calibration/{}.csv",
+}
+
+
+def figures(*datasets):
+    """Names of the figures drawn from ``datasets`` (those of a family excluded)."""
+    return [
+        name
+        for name, fig in PLOTS.items()
+        if fig.input.partition(":")[2] in datasets and "{" not in name
+    ]
+
+
+def figure_input(wildcards):
+    """Input function of a plot rule: the file figure ``wildcards.figure`` is drawn from."""
+    kind, _, dataset = PLOTS[wildcards.figure].input.partition(":")
+    return PLOT_INPUTS[kind].format(dataset)
+
+
+def figure_caption(wildcards):
+    """Params function of a plot rule: the registry's caption (workflow/report/plot.rst)."""
+    return PLOTS[wildcards.figure].caption
 
 
 # Each further scene's rules file appends the function listing what `rule all` asks of it.
@@ -147,7 +194,7 @@ def all_targets():
     return [
         "results/aggregate/ballmill.nc",
         "results/aggregate/ballmill_forcechain.nc",
-        *(f"results/plots/ballmill_{kind}.png" for kind in BALLMILL_PLOTS),
+        *(f"results/plots/{figure}.png" for figure in BALLMILL_FIGURES),
         *(
             f"results/plots/ballmill_animation/{case}.gif"
             for case in STUDIES["ballmill_animation"].space.instance_patterns

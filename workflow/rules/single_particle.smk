@@ -17,7 +17,7 @@ localrules:
 
 
 SINGLE_PARTICLE = config["single_particle"]
-TAVARES_PLOTS = ["probability", "repeated", "t10", "size_distributions", "table2"]
+TAVARES_FIGURES = figures("tavares_verification")
 
 
 def single_particle_study(block, stack_over):
@@ -85,34 +85,34 @@ rule aggregate_single_particle:
     log:
         "results/logs/aggregate_single_particle.log",
     shell:
-        "python -m millsim.analysis.tavares_verification aggregate {input.cases} --out {output}"
-        " > {log} 2>&1"
+        "millsim analyse tavares aggregate {input.cases} --out {output} > {log} 2>&1"
 
 
 rule plot_single_particle:
     input:
-        "results/aggregate/tavares_verification.nc",
+        figure_input,
     output:
         report(
-            "results/plots/tavares_{kind}.png",
-            caption="../report/single_particle_plot.rst",
+            "results/plots/{figure}.png",
+            caption="../report/plot.rst",
             category="Tavares single-particle verification",
-            labels={"figure": "{kind}"},
+            labels={"figure": "{figure}"},
         ),
     log:
-        "results/logs/plot_single_particle/{kind}.log",
+        "results/logs/plot_single_particle/{figure}.log",
+    params:
+        caption=figure_caption,
     wildcard_constraints:
-        kind="|".join(TAVARES_PLOTS),
+        figure="|".join(TAVARES_FIGURES),
     shell:
-        "python -m millsim.analysis.tavares_verification plot {wildcards.kind} {input}"
-        " --out {output} > {log} 2>&1"
+        "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 
 
 def single_particle_targets():
     """What `rule all` asks of this scene (common.smk all_targets)."""
     return [
         "results/aggregate/tavares_verification.nc",
-        *(f"results/plots/tavares_{kind}.png" for kind in TAVARES_PLOTS),
+        *(f"results/plots/{figure}.png" for figure in TAVARES_FIGURES),
     ]
 
 

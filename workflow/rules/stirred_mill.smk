@@ -79,7 +79,13 @@ def stirred_stage3_cases(wildcards):
     return sorted({stirred_case(mu, e, r) for e in etas for r in _CAL["rpm"]})
 
 
-STIRRED_PLOTS = ("power", "typology", "regions", "velocity")
+# figures of the registry drawn from the power aggregate and the calibration tables
+STIRRED_FIGURES = figures(
+    "stirred_mill",
+    "stirred_mill_friction",
+    "stirred_mill_viscosity",
+    "stirred_mill_prediction",
+)
 
 
 def stirred_mill_targets():
@@ -87,10 +93,7 @@ def stirred_mill_targets():
         return []
     return [
         "results/aggregate/stirred_mill.nc",
-        *(f"results/plots/stirred_mill_{k}.png" for k in STIRRED_PLOTS),
-        "results/plots/stirred_mill_friction.png",
-        "results/plots/stirred_mill_viscosity.png",
-        "results/plots/stirred_mill_prediction.png",
+        *(f"results/plots/{figure}.png" for figure in STIRRED_FIGURES),
         "results/calibration/stirred_mill_prediction.csv",
     ]
 
@@ -103,7 +106,6 @@ if STIRRED:
         stirred_mill_friction,
         stirred_mill_viscosity,
         stirred_mill_predict,
-        plot_stirred_mill_calibration,
 
     # Cached between workflows (`--cache`); wall time and steps are in the case file.
     rule simulate_stirred_mill:
@@ -133,21 +135,22 @@ if STIRRED:
 
     rule plot_stirred_mill:
         input:
-            "results/aggregate/stirred_mill.nc",
+            figure_input,
         output:
             report(
-                "results/plots/stirred_mill_{kind}.png",
-                caption="../report/stirred_mill_plot.rst",
+                "results/plots/{figure}.png",
+                caption="../report/plot.rst",
                 category="Stirred mill",
-                labels={"figure": "{kind}"},
+                labels={"figure": "{figure}"},
             ),
         log:
-            "results/logs/plot_stirred_mill/{kind}.log",
+            "results/logs/plot_stirred_mill/{figure}.log",
+        params:
+            caption=figure_caption,
         wildcard_constraints:
-            kind="|".join(STIRRED_PLOTS),
+            figure="|".join(STIRRED_FIGURES),
         shell:
-            "python -m millsim.analysis.stirred_mill plot {wildcards.kind} {input}"
-            " --out {output} > {log} 2>&1"
+            "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 
     checkpoint stirred_mill_friction:
         input:
@@ -160,7 +163,7 @@ if STIRRED:
         log:
             "results/logs/stirred_mill_friction.log",
         shell:
-            "python -m millsim.analysis.stirred_mill friction {input.cases}"
+            "millsim analyse stirred-mill friction {input.cases}"
             " --reference {input.reference} --table {output.table}"
             " --summary {output.summary} --choice {output.choice} > {log} 2>&1"
 
@@ -177,7 +180,7 @@ if STIRRED:
         params:
             rpm=_CAL["eta_rpm"] if STIRRED else 0,
         shell:
-            "python -m millsim.analysis.stirred_mill viscosity {input.cases}"
+            "millsim analyse stirred-mill viscosity {input.cases}"
             " --reference {input.reference} --friction {input.friction} --rpm {params.rpm}"
             " --table {output.table} --choice {output.choice} > {log} 2>&1"
 
@@ -191,34 +194,9 @@ if STIRRED:
         log:
             "results/logs/stirred_mill_predict.log",
         shell:
-            "python -m millsim.analysis.stirred_mill predict {input.cases}"
+            "millsim analyse stirred-mill predict {input.cases}"
             " --reference {input.reference} --viscosity {input.viscosity}"
             " --table {output.table} > {log} 2>&1"
-
-    rule plot_stirred_mill_calibration:
-        input:
-            lambda wc: {
-                "friction": [
-                    "results/calibration/stirred_mill_friction.csv",
-                    "results/calibration/stirred_mill_friction_ssr.csv",
-                ],
-                "viscosity": ["results/calibration/stirred_mill_viscosity.csv"],
-                "prediction": ["results/calibration/stirred_mill_prediction.csv"],
-            }[wc.stage],
-        output:
-            report(
-                "results/plots/stirred_mill_{stage}.png",
-                caption="../report/stirred_mill_calibration.rst",
-                category="Stirred mill",
-                labels={"figure": "calibration {stage}"},
-            ),
-        log:
-            "results/logs/plot_stirred_mill_calibration/{stage}.log",
-        wildcard_constraints:
-            stage="friction|viscosity|prediction",
-        shell:
-            "python -m millsim.analysis.stirred_mill plot {wildcards.stage} {input}"
-            " --out {output} > {log} 2>&1"
 
 
 SCENE_TARGETS.append(stirred_mill_targets)

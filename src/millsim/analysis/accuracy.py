@@ -4,8 +4,9 @@ A *ladder* is one scene run over a sequence of time steps (a `dt`, `dt_factor` o
 `steps_per_contact` sweep), each step repeated over seeds. Per step and observable this module
 gives the mean over seeds, the error against a converged reference, the statistical noise and the
 wall time, and picks the cheapest step whose error is within a tolerance (1 % of the reference) or
-within the noise. Everything here is a pure function of numbers (numpy/pandas); the command line
-at the bottom reads case files, writes ``results/aggregate/accuracy.nc`` and draws the figures.
+within the noise. Everything here is a pure function of numbers (numpy/pandas); ``millsim analyse
+accuracy`` reads the case files and writes ``results/aggregate/accuracy.nc``, ``millsim plot
+error_vs_runtime_<name>`` draws the figures (millsim.plots.accuracy).
 
 Definitions (also in the README section "Accuracy: error against run time"):
 
@@ -36,9 +37,7 @@ Definitions (also in the README section "Accuracy: error against run time"):
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -46,11 +45,12 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from . import cli_main
+import millsim
 
 __all__ = [
     "OBSERVABLES", "Observable", "observed_order", "richardson", "reference_value",
-    "ladder_statistics", "error_table", "cheapest_within", "analyse", "to_dataset",
+    "ladder_statistics", "error_table", "cheapest_within", "collect", "analyse", "study",
+    "to_dataset", "points_frame", "summary_markdown",
 ]
 
 NOMINAL_ORDER = 2.0  # velocity Verlet and Gear as used here are both second order globally
@@ -575,11 +575,6 @@ def points_frame(ds, prefix="point"):
     return pd.DataFrame(cols)
 
 
-def write_dataset(ds, path):
-    enc = {k: {"_FillValue": None} for k in ds.coords}
-    ds.to_netcdf(path, engine="netcdf4", format="NETCDF4", encoding=enc)
-
-
 # ---- summary (markdown) -------------------------------------------------------------------------
 
 def _fmt(x, digits=3):
@@ -625,104 +620,21 @@ def summary_markdown(points, choices):
     return "\n".join(out) + "\n"
 
 
-# ---- command line -------------------------------------------------------------------------------
+# ---- the study: series tables -> dataset and summary ---------------------------------------------
 
-def _parse_pairs(items, what):
-    out = {}
-    for item in items or ():
-        if "=" not in item:
-            raise ValueError(f"--{what}: expected KEY=VALUE, got {item!r}")
-        k, v = item.split("=", 1)
-        out[k.strip()] = v.strip()
-    return out
-
-
-def cmd_collect(a):
-    df = collect(a.cases, a.name, a.series, a.ladder)
-    df.to_csv(a.out, index=False)
-    print(f"{a.name}/{a.series}: {df['path'].nunique()} cases, "
-          f"{df['observable'].nunique()} observables")
-
-
-def cmd_aggregate(a):
-    import millsim
-
-    cases = pd.concat([pd.read_csv(p) for p in a.tables], ignore_index=True)
-    links = {tuple(k.split("/", 1)): v for k, v in _parse_pairs(a.reference, "reference").items()}
-    methods = _parse_pairs(a.method, "method")
-    decide = {k: v.split(",") for k, v in _parse_pairs(a.decide, "decide").items()}
-    points, choices = analyse(cases, a.tolerance, links, methods, decide, a.limit_fraction)
+def study(cases, tolerance=0.01, links=None, methods=None, decide=None, limit_fraction=1.0,
+          config_json=""):
+    """The accuracy dataset (:func:`to_dataset`, with the definitions and settings as attributes)
+    and its markdown summary, from the long case table of every series (:func:`collect`)."""
+    points, choices = analyse(cases, tolerance, links, methods, decide, limit_fraction)
     attrs = {
         "title": "millsim accuracy study: error against run time per scene",
-        "tolerance": a.tolerance,
-        "limit_fraction": a.limit_fraction,
+        "tolerance": tolerance,
+        "limit_fraction": limit_fraction,
         "definitions": __doc__[__doc__.index("- **reference**"):].strip(),
         "millsim_version": millsim.__version__,
         "analysis_code_version": millsim.__version__,
         "engine_hashes": ",".join(sorted(cases["engine_hash"].astype(str).unique())),
-        "config_json": a.config_json or "",
-        "Conventions": "CF-1.8",
+        "config_json": config_json or "",
     }
-    write_dataset(to_dataset(cases, points, choices, attrs), a.out)
-    text = summary_markdown(points, choices)
-    if a.summary:
-        with open(a.summary, "w") as fh:
-            fh.write(text)
-    print(text)
-
-
-def cmd_plot(a):
-    from .. import plots_accuracy
-
-    plots_accuracy.plot(a.name, a.input, a.out)
-
-
-def cmd_summary(a):
-    with xr.open_dataset(a.input, engine="netcdf4") as ds:
-        ds = ds.load()
-    print(summary_markdown(points_frame(ds, "point"), points_frame(ds, "choice")))
-
-
-def build_parser():
-    parser = argparse.ArgumentParser(prog="python -m millsim.analysis.accuracy",
-                                     description="error against run time (work-precision)")
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("collect", help="one series' cases -> long table (CSV)")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--name", required=True, help="study name (ballmill, stirred_mill, ...)")
-    p.add_argument("--series", required=True)
-    p.add_argument("--ladder", required=True, help="the swept step parameter")
-    p.add_argument("--out", required=True)
-    p.set_defaults(func=cmd_collect)
-    p = sub.add_parser("aggregate", help="series tables -> accuracy.nc (+ markdown summary)")
-    p.add_argument("tables", nargs="+")
-    p.add_argument("--tolerance", type=float, default=0.01)
-    p.add_argument("--limit-fraction", type=float, default=1.0,
-                   help="a chosen step stays <= this fraction of the stability limit")
-    p.add_argument("--reference", action="append", metavar="NAME/SERIES=OTHER",
-                   help="series compared with the reference of another series of that name")
-    p.add_argument("--method", action="append", metavar="NAME=METHOD",
-                   help="reference method per name: auto | finest | richardson")
-    p.add_argument("--decide", action="append", metavar="NAME=OBS,OBS",
-                   help="observables that decide the default step (default: headline ones)")
-    p.add_argument("--config-json", default="", help="the study's config, recorded as attribute")
-    p.add_argument("--out", required=True)
-    p.add_argument("--summary", help="markdown summary file")
-    p.set_defaults(func=cmd_aggregate)
-    p = sub.add_parser("plot", help="error vs wall time of one name")
-    p.add_argument("name")
-    p.add_argument("input")
-    p.add_argument("--out", required=True)
-    p.set_defaults(func=cmd_plot)
-    p = sub.add_parser("summary", help="print the markdown tables of accuracy.nc")
-    p.add_argument("input")
-    p.set_defaults(func=cmd_summary)
-    return parser
-
-
-def main(argv=None):
-    return cli_main.run(build_parser, "accuracy", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    return to_dataset(cases, points, choices, attrs), summary_markdown(points, choices)

@@ -2,7 +2,8 @@
 
 The aggregate keeps what is compared across cases: scalars, size distributions, maps and
 force-chain statistics. Per-case records (time series, fracture events, size snapshots) differ in
-length from case to case and stay in the case files; scene summaries reduce them first.
+length from case to case and stay in the case files; scene summaries reduce them first
+(SCENE_SUMMARIES). ``millsim aggregate`` writes the result with millsim.io.write_netcdf.
 """
 
 import json
@@ -13,8 +14,9 @@ import pandas as pd
 import xarray as xr
 
 from ..io import case_parameters, read_case
+from . import ballmill, bed_impact
 
-__all__ = ["aggregate", "stack_cases", "swept_parameters", "write_aggregate"]
+__all__ = ["aggregate", "stack_cases", "swept_parameters", "SCENE_SUMMARIES"]
 
 PER_CASE_DIMS = ("time", "event", "snapshot")
 
@@ -61,42 +63,15 @@ def stack_cases(cases: Sequence[xr.Dataset], over: Sequence[str],
     return stacked
 
 
-def _ballmill_case_summary(ds: xr.Dataset) -> xr.Dataset:
-    """Reduce the size snapshots of one ball-mill case to their mean and spread."""
-    if "size_distribution" not in ds:
-        return ds
-    mass = ds["size_distribution"]
-    fraction = mass / mass.sum("size_class")
-    return ds.assign(
-        size_distribution_mean=mass.mean("snapshot").assign_attrs(
-            units=mass.attrs["units"], long_name="mass per size class, mean over snapshots"),
-        mass_fraction=fraction.mean("snapshot").assign_attrs(
-            units="1", long_name="mass fraction per size class, mean over snapshots"),
-        mass_fraction_std=fraction.std("snapshot").assign_attrs(
-            units="1", long_name="standard deviation of the mass fraction over snapshots"),
-    )
-
-
-def _ballmill_summary(ds: xr.Dataset) -> xr.Dataset:
-    """Comminution rate relative to its maximum over n/n_c (as in Fig. 6 of seed 000)."""
-    if "chain_count" in ds:  # a chain length absent from one case was counted zero times there
-        ds["chain_count"] = ds["chain_count"].fillna(0.0)
-    if "comminution_rate" not in ds:
-        return ds
-    if "n_over_nc" not in ds.dims:
-        raise ValueError("over: the ball-mill rate is normalised along n_over_nc; stack over it")
-    peak = ds["comminution_rate"].max("n_over_nc")
-    ds["relative_rate"] = (ds["comminution_rate"] / peak).assign_attrs(
-        units="1", long_name="comminution rate relative to its maximum over n/n_c")
-    # the maximum is taken as exact, so the relative interval is the absolute one scaled
-    ds["relative_rate_ci"] = (ds["comminution_rate_ci"] / peak).assign_attrs(
-        units="1", long_name="95% half-width of the relative comminution rate")
+def _unchanged(ds: xr.Dataset) -> xr.Dataset:
     return ds
 
 
-# scene -> (per-case summary, summary of the stacked dataset)
+# scene -> (summary of each case before stacking, summary of the stacked dataset); a scene not
+# named here is stacked as it is
 SCENE_SUMMARIES: dict[str, tuple[Callable, Callable]] = {
-    "ballmill2d": (_ballmill_case_summary, _ballmill_summary),
+    "ballmill2d": (ballmill.case_summary, ballmill.summary),
+    "bed_impact": (_unchanged, bed_impact.summary),
 }
 
 
@@ -113,13 +88,7 @@ def aggregate(scene: str, paths: Iterable[str | os.PathLike[str]],
         if ds.attrs.get("scene") != scene:
             raise ValueError(f"{path}: a case of scene {ds.attrs.get('scene')!r}, not {scene!r}")
     over = list(over or swept_parameters(cases))
-    per_case, summary = SCENE_SUMMARIES.get(scene, (lambda ds: ds, lambda ds: ds))
+    per_case, summary = SCENE_SUMMARIES.get(scene, (_unchanged, _unchanged))
     stacked = summary(stack_cases([per_case(ds) for ds in cases], over, coord_attrs))
     stacked.attrs["source_cases"] = json.dumps(paths)
     return stacked
-
-
-def write_aggregate(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
-    """Write an aggregate to netCDF4 (CF: no fill values on coordinates)."""
-    encoding = {name: {"_FillValue": None} for name in ds.coords}
-    ds.to_netcdf(path, engine="netcdf4", format="NETCDF4", encoding=encoding)

@@ -1,6 +1,7 @@
-"""Stirred-mill power-draw calibration (seed 004 section 4.1) and its command line.
+"""Stirred-mill power-draw calibration (seed 004 section 4.1).
 
-Three stages, each a pure function over case files and a reference table, each a Snakemake rule:
+Three stages, each a pure function over case files and a reference table, each a Snakemake rule
+calling ``millsim analyse stirred-mill STAGE`` (``millsim analyse stirred-mill --help``):
 
 1. ``friction``: dry cases (eta = 0) over friction x rpm; sum over rpm of squared residuals
    against the reference dry power; mu = the grid minimum (plus a parabola-refined estimate).
@@ -13,20 +14,15 @@ Three stages, each a pure function over case files and a reference table, each a
    reference curves (seed Fig. 7).
 
 Reference table (CSV, ``config/reference/stirred_mill_power.csv``): columns rpm [min-1], fluid
-(``dry`` for the dry benchmark), eta_exp [Pa s], net_power [W], source. Run
-``python -m millsim.analysis.stirred_mill --help`` for the commands.
+(``dry`` for the dry benchmark), eta_exp [Pa s], net_power [W], source.
 """
 
-import argparse
-import json
 import math
-import sys
 
 import numpy as np
 import pandas as pd
 
 from ..io import case_parameters, read_case
-from . import cli_main
 
 REFERENCE_COLUMNS = ("rpm", "fluid", "eta_exp", "net_power", "source")
 DRY = "dry"
@@ -79,6 +75,12 @@ def _parabola_min(x, y):
     return float(np.clip(-b / (2 * a), x[k - 1], x[k + 1]))
 
 
+def friction_ssr(table):
+    """Sum over speeds of the squared residuals, per friction (from the stage 1 residual table)."""
+    return (table.assign(sq=table["residual"] ** 2).groupby("friction")
+            .agg(ssr=("sq", "sum"), speeds=("sq", "size")).reset_index())
+
+
 def calibrate_friction(cases, ref):
     """Stage 1. Returns (residual table, summary per mu, choice dict)."""
     dry_ref = ref[ref["fluid"] == DRY]
@@ -90,8 +92,7 @@ def calibrate_friction(cases, ref):
     if cases.empty:
         raise ValueError("stage 1: no dry case at a speed of the reference")
     cases["residual"] = cases["net_power"] - cases["reference"]
-    summary = (cases.assign(sq=cases["residual"] ** 2).groupby("friction")
-               .agg(ssr=("sq", "sum"), speeds=("sq", "size")).reset_index())
+    summary = friction_ssr(cases)
     mu = summary["friction"].to_numpy()
     ssr = summary["ssr"].to_numpy()
     choice = dict(friction=float(mu[np.argmin(ssr)]), friction_refined=_parabola_min(mu, ssr),
@@ -142,88 +143,3 @@ def predict(cases, ref, friction, etas):
                              net_power_ci=c["net_power_ci"], reference=target,
                              residual=c["net_power"] - target))
     return pd.DataFrame(rows)
-
-
-# ---- command line ------------------------------------------------------------------------------
-
-def _read_json(path):
-    with open(path) as fh:
-        return json.load(fh)
-
-
-def _write_json(path, obj):
-    with open(path, "w") as fh:
-        json.dump(obj, fh, indent=2, sort_keys=True)
-        fh.write("\n")
-
-
-def cmd_friction(a):
-    table, summary, choice = calibrate_friction(case_table(a.cases), read_reference(a.reference))
-    table.to_csv(a.table, index=False)
-    summary.to_csv(a.summary, index=False)
-    _write_json(a.choice, choice)
-    print(f"stage 1: friction = {choice['friction']:g} (refined {choice['friction_refined']:.4g})")
-
-
-def cmd_viscosity(a):
-    friction = _read_json(a.friction)["friction"]
-    table, choice = calibrate_viscosity(case_table(a.cases), read_reference(a.reference), friction,
-                                        a.rpm)
-    table.to_csv(a.table, index=False)
-    _write_json(a.choice, dict(friction=friction, rpm=a.rpm, fluids=choice))
-    for fluid, c in choice.items():
-        print(f"stage 2: {fluid}: eta_sim = {c['eta_sim']:g} Pa s (refined {c['eta_sim_refined']:.4g})")
-
-
-def cmd_predict(a):
-    visc = _read_json(a.viscosity)
-    etas = {f: c["eta_sim"] for f, c in visc["fluids"].items()}
-    table = predict(case_table(a.cases), read_reference(a.reference), visc["friction"], etas)
-    table.to_csv(a.table, index=False)
-
-
-def cmd_plot(a):
-    from .. import plots_stirred_mill
-
-    plots_stirred_mill.plot(a.kind, a.inputs, a.out)
-
-
-def build_parser():
-    parser = argparse.ArgumentParser(prog="python -m millsim.analysis.stirred_mill",
-                                     description="stirred-mill calibration stages and figures")
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("friction", help="stage 1: friction from dry power vs speed")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--reference", required=True)
-    p.add_argument("--table", required=True, help="residuals per case (CSV)")
-    p.add_argument("--summary", required=True, help="sum of squared residuals per friction (CSV)")
-    p.add_argument("--choice", required=True, help="chosen friction (JSON)")
-    p.set_defaults(func=cmd_friction)
-    p = sub.add_parser("viscosity", help="stage 2: eta_sim per fluid at one speed")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--reference", required=True)
-    p.add_argument("--friction", required=True, help="stage 1 choice (JSON)")
-    p.add_argument("--rpm", type=float, required=True)
-    p.add_argument("--table", required=True)
-    p.add_argument("--choice", required=True)
-    p.set_defaults(func=cmd_viscosity)
-    p = sub.add_parser("predict", help="stage 3: power curves at the calibrated mu and eta_sim")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--reference", required=True)
-    p.add_argument("--viscosity", required=True, help="stage 2 choice (JSON)")
-    p.add_argument("--table", required=True)
-    p.set_defaults(func=cmd_predict)
-    p = sub.add_parser("plot", help="figures (see millsim.plots_stirred_mill.PLOTS)")
-    p.add_argument("kind")
-    p.add_argument("inputs", nargs="+")
-    p.add_argument("--out", required=True)
-    p.set_defaults(func=cmd_plot)
-    return parser
-
-
-def main(argv=None):
-    return cli_main.run(build_parser, "stirred_mill", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

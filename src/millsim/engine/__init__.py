@@ -1,4 +1,8 @@
-"""The DEM engine: particles, contacts, walls, kinematic bodies, integrators, time step."""
+"""The DEM engine: particles, contacts, walls, kinematic bodies, integrators, time step.
+
+It imports no model: contact laws, breakage and fluids (``millsim.models``) are handed to
+:class:`Simulation` as objects that bring their hooks.
+"""
 
 import os
 from pathlib import Path
@@ -17,10 +21,8 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
 # workqueue fallback take 10-50x longer, which dominates small systems.
 numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
 
-from .materials import Interaction, Material, MaterialTable
-from .simulation import Simulation, SimulationError
+from .simulation import Guards, Simulation, SimulationError, StepPolicy
 from .spec import PhysicsSpec
 from .timestep import TimeStepError
 
-__all__ = ["Interaction", "Material", "MaterialTable", "PhysicsSpec", "Simulation",
-           "SimulationError", "TimeStepError"]
+__all__ = ["Guards", "PhysicsSpec", "Simulation", "SimulationError", "StepPolicy", "TimeStepError"]

@@ -2,12 +2,15 @@
 
 Walls are rows of a float table so that one compiled loop serves any mix of them:
 
-    [kind, px, py, pz, ax, ay, az, radius, omega, material]
+    [kind, px, py, pz, ax, ay, az, radius, omega, material, active]
 
 - ``PLANE``: point p, unit normal a pointing into the domain (static).
 - ``CYLINDER_INNER``: particles inside a cylinder of the given radius, axis through p along a, the
   surface rotating at ``omega`` rad/s about a (a drum shell).
 - ``CYLINDER_OUTER``: particles outside the cylinder (a shaft), same rotation convention.
+
+``active`` is 1, or 0 for a wall that has been taken away (e.g. the holder of a bed once the bed
+has settled).
 
 Kinematic bodies are groups of particles whose positions follow a prescribed motion from their
 reference positions at t = 0, so there is no drift however long the run:
@@ -24,11 +27,14 @@ from numba import njit
 
 PLANE, CYLINDER_INNER, CYLINDER_OUTER = 0, 1, 2
 WALL_KINDS = {"plane": PLANE, "cylinder_inner": CYLINDER_INNER, "cylinder_outer": CYLINDER_OUTER}
-WALL_COLUMNS = 10
+WALL_COLUMNS = 11
+# named columns of a wall row
+W_KIND, W_POINT, W_AXIS, W_RADIUS, W_OMEGA, W_MATERIAL, W_ACTIVE = 0, slice(1, 4), slice(4, 7), 7, 8, 9, 10
 
 ROTATE, TRANSLATE = 0, 1
 BODY_KINDS = {"rotate": ROTATE, "translate": TRANSLATE}
 BODY_COLUMNS = 8
+B_KIND, B_CENTER, B_AXIS, B_RATE = 0, slice(1, 4), slice(4, 7), 7
 
 
 @njit(inline="always", cache=True)

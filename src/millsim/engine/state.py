@@ -1,22 +1,47 @@
-"""Struct-of-arrays particle state and the contact list, as numba-compatible named tuples.
+"""Struct-of-arrays state handed to the compiled loop, as numba-compatible named tuples.
 
-One :class:`ParticleArrays` holds every per-particle array the compiled loop touches. 2D scenes use
-the same 3-component arrays with z = 0 (disks spin about z only), so one set of kernels serves both
-dimensions; only masses, inertias and the cell grid depend on ``dim``.
+The loop receives a few named bundles instead of dozens of positional arrays:
+
+- :class:`ParticleArrays` (per particle: kinematics, size, mass, owner body, integrator history);
+- :class:`ContactList` (the half Verlet list in CSR form and its per-contact state);
+- :class:`WallArrays` and :class:`BodyArrays` (the prescribed boundaries and what they receive);
+- :class:`RunSettings` (constants of the run) and :class:`Accumulators` (counters, guard, energy
+  audit).
+
+Models keep their own per-particle arrays (see :mod:`millsim.engine.models`). 2D scenes use the
+same 3-component arrays with z = 0 (disks spin about z only), so one set of kernels serves both
+dimensions; only masses, inertias and the cell grid depend on ``dim``. An array that a spec does
+not use has length 0 (Gear history with Verlet, the normal-force sum without pressure maps).
 """
 
 from collections import namedtuple
 
 import numpy as np
 
+from .integrators import GEAR_SLOTS
+
 ParticleArrays = namedtuple(
     "ParticleArrays",
     ["x", "v", "w", "acc", "alpha", "radius", "inv_mass", "inv_inertia", "material", "body",
-     "x_ref", "x_body0", "gear", "fn_sum", "e_acc", "e_frac", "break_at_end", "t10_recorded"],
+     "x_ref", "x_body0", "gear", "fn_sum"],
 )
 ContactList = namedtuple("ContactList", ["start", "nbr", "state", "rev_start", "rev_slot"])
-
-GEAR_SLOTS = 6  # x''', x'''', x''''' and the same three for rotation
+# table: one row per wall (engine.kinematics); hist: per particle and wall, the contact state;
+# impulse: force and torque about the wall's point, integrated over time [N s, N m s]; work [J]
+# the wall has done on the particles.
+WallArrays = namedtuple("WallArrays", ["table", "hist", "impulse", "work"])
+# table: one row per body; members: its particles; load: force and torque about the body's
+# centre of the last step [N, N m]; impulse, work: integrated as for walls.
+BodyArrays = namedtuple("BodyArrays", ["table", "members", "load", "impulse", "work"])
+RunSettings = namedtuple("RunSettings", [
+    "pair_params", "gravity", "box_lo", "box_len", "skin", "reach", "dim", "max_overlap", "v_max"])
+# Per-chunk scratch of the loop: slot records and rolling torques per Verlet slot, per-block partial
+# sums of wall loads and audit powers, and the stop and rebuild flags.
+Scratch = namedtuple("Scratch", ["out", "proll", "wall_part", "audit_part", "stop", "rebuild"])
+# counters: [list rebuilds, steps]; err: [guard code, step, particle, partner]; dissipation:
+# energy per audit term [J] then the last step's power per term [W]; n_events: rows used in
+# the events table.
+Accumulators = namedtuple("Accumulators", ["counters", "err", "dissipation", "n_events"])
 
 
 def disk_or_sphere_mass(radius, density, dim, thickness):
@@ -32,7 +57,7 @@ def moment_of_inertia(mass, radius, dim):
     return (0.4 if dim == 3 else 0.5) * mass * np.asarray(radius) ** 2
 
 
-def allocate(x, v, w, radius, inv_mass, inv_inertia, material, body, x_body0, gear):
+def allocate(x, v, w, radius, inv_mass, inv_inertia, material, body, x_body0, gear, force_sum):
     """Assemble ParticleArrays with C-contiguous, correctly typed arrays and fresh scratch arrays."""
     n = len(radius)
     as3 = lambda a: np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(n, 3))
@@ -46,25 +71,20 @@ def allocate(x, v, w, radius, inv_mass, inv_inertia, material, body, x_body0, ge
         body=np.ascontiguousarray(body, dtype=np.int32),
         x_ref=x.copy(), x_body0=as3(x_body0),
         gear=np.zeros((n if gear else 0, GEAR_SLOTS, 3)),
-        fn_sum=np.zeros(n),
-        # Tavares breakage: energy absorbed in the current stressing event [J] and the current
-        # (damaged) specific fracture energy [J/kg]; inf = never breaks.
-        e_acc=np.zeros(n), e_frac=np.full(n, np.inf),
-        # Tavares breakage decided at the end of the stressing event with its whole energy
-        # instead of when the energy first reaches E; the t10' [%] recorded for a
-        # resolved-unbreakable particle's first breaking event (seed 002 section 2.3; NaN: none).
-        break_at_end=np.zeros(n, dtype=np.bool_), t10_recorded=np.full(n, np.nan),
+        fn_sum=np.zeros(n if force_sum else 0),
     )
 
 
-def select(p: ParticleArrays, keep) -> ParticleArrays:
-    """Particles where ``keep`` is true (a boolean mask or an index array), all arrays consistent."""
-    return ParticleArrays(*(a[keep].copy() if a.shape[0] == p.x.shape[0] else a for a in p))
+def select_rows(arrays, keep, n):
+    """The same named tuple with the rows where ``keep`` is true of every per-particle array
+    (length ``n``); arrays of another length (unused ones) are kept as they are."""
+    return type(arrays)(*(a[keep].copy() if a.shape[0] == n else a for a in arrays))
 
 
-def concatenate(a: ParticleArrays, b: ParticleArrays) -> ParticleArrays:
-    """Append the particles of ``b`` to ``a``."""
-    return ParticleArrays(*(np.ascontiguousarray(np.concatenate([u, w])) for u, w in zip(a, b)))
+def append_rows(a, b, n):
+    """Append the rows of ``b`` to the per-particle arrays of ``a`` (length ``n``)."""
+    return type(a)(*(np.ascontiguousarray(np.concatenate([u, w])) if u.shape[0] == n else u
+                     for u, w in zip(a, b)))
 
 
 def empty_contacts(n: int, state_columns: int) -> ContactList:

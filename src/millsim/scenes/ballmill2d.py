@@ -11,24 +11,24 @@ grain_radius (the centre of a raw grain touching the wall). Disks are 2D with a 
 rho pi R^2 L); the paper's mass convention is not stated, so L = 1 cm is an assumption.
 
 With ``fragmentation`` on: Weibull fracture per contact event at its peak force (see
-:mod:`millsim.breakage.weibull`), two-disk split, twin relief until first separation, fragments
+:mod:`millsim.models.breakage.weibull`), two-disk split, twin relief until first separation, fragments
 below the sieve radius leave as dust, and a raw grain re-enters whenever the dust mass reaches its
 mass (continuous operation at constant filling). With it off (the force-chain study of section 5)
 no breakage code is compiled and no breakage output is written; force chains are analysed instead.
 """
 
 import math
-import time
+from dataclasses import replace
 
 import numpy as np
-import xarray as xr
 
-from ..analysis.force_chains import chain_statistics, find_chains
-from ..analysis.rates import steady_rate
-from ..breakage.weibull import split_disk
-from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from ..engine.timestep import linear_contact_time, tangential_dashpot_bound
-from .base import Param, RunInfo, Scene, register
+from .force_chains import chain_statistics, find_chains
+from ..util.stats import steady_rate
+from ..engine import Guards, PhysicsSpec, Simulation
+from ..models import Interaction, Material, MaterialTable, WeibullModel
+from ..models.breakage.weibull import WeibullSplit
+from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .driver import Case, Series
 
 G = 9.81
 RANDOM_PACKING_2D = 0.82  # area fraction of a random 2D disk packing (filling -> solid area)
@@ -55,9 +55,10 @@ PARAMS = (
     Param("twin_repulsion", 1e-3, "constant force separating twin fragments (eqs 19-20)", "N", 0.0),
     Param("chain_threshold", 0.01, "force-chain criterion 2: sum of normal forces on a grain (1000 g cm s-2)", "N", 0.0),
     Param("integrator", "gear", "time integrator (the paper: Gear 6th order)", choices=("gear", "verlet")),
-    Param("steps_per_contact", 25, "dt = t_c(smallest pair) / this, if dt = 0 (capped at the "
-          "tangential-dashpot limit of the Haff-Werner friction)", "1", 10),
-    Param("dt", 0.0, "time step; 0 = from steps_per_contact", "s", 0.0),
+    # the paper's Gear step: t_c/25 of the smallest fragment pair (recommended: t_c/50), within
+    # the tangential-dashpot limit of the Haff-Werner friction (engine.timestep)
+    replace(TIME_STEP_PARAMS[0], default=2.0),
+    TIME_STEP_PARAMS[1],
     Param("duration", 3.0, "simulated time", "s", 0.0, lo_open=True),
     Param("transient", 1.0, "initial time discarded from steady-state statistics", "s", 0.0),
     Param("record_interval", 0.01, "output cadence", "s", 0.0, lo_open=True),
@@ -149,180 +150,149 @@ def build(values):
     table = MaterialTable([mat], {"*": Interaction(friction=values["friction"], normal_stiffness=values["stiffness"],
                                                    normal_damping_rate=values["gamma_n"],
                                                    tangential_damping_rate=values["gamma_t"])}, "linear_hw")
-    spec = PhysicsSpec(dim=2, contact_law="linear_hw", integrator=values["integrator"], bodies=True,
-                       normal_force_sum=True, fracture="weibull" if values["fragmentation"] else "")
+    spec = PhysicsSpec(dim=2, integrator=values["integrator"], bodies=True, normal_force_sum=True)
     # The smallest particle that can ever exist sets dt once: fragments down to the sieve size.
     r_min = values["sieve_radius"] if values["fragmentation"] else float(grains_r.min())
-    m_min = values["density"] * math.pi * r_min**2 * values["thickness"]
-    t_c, _ = linear_contact_time(values["stiffness"], m_min / 2, values["gamma_n"])
     sim = Simulation(spec, table, x=x, radius=radius, material="grain", body=body,
                      bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(0, 0, 1), rate=-omega)],
                      gravity=(0.0, -G, 0.0), thickness=values["thickness"],
-                     skin=0.5 * values["sieve_radius"], impact_speed=max(1.0, omega * values["drum_radius"]),
-                     fracture_c=values["weibull_c"], twin_repulsion=values["twin_repulsion"],
-                     seed=values["seed"], max_overlap=0.5, smallest_radius=r_min)
-    # Automatic step: t_c / steps_per_contact, but never above the limit of the Haff-Werner
-    # tangential dashpot (gamma_T = 3000 1/s caps Gear at 6.0 us; without fragmentation t_c of
-    # the raw grains alone would allow 1.4e-5 s, where a resting charge gains energy).
-    hw = (tangential_dashpot_bound(values["gamma_t"], 2, values["integrator"]).limit
-          if values["gamma_t"] > 0 else math.inf)
-    sim.set_time_step(values["dt"] if values["dt"] > 0 else min(t_c / values["steps_per_contact"], hw))
+                     skin=0.5 * values["sieve_radius"],
+                     step=step_policy(values, impact_speed=max(1.0, omega * values["drum_radius"]),
+                                      smallest_radius=r_min),
+                     guards=Guards(max_overlap=0.5),
+                     breakage=WeibullModel(values["weibull_c"], values["twin_repulsion"],
+                                           values["seed"]) if values["fragmentation"] else None)
     return sim, n_c, omega
 
 
-class MillBookkeeping:
-    """Fracture handling and the running records of one ball-mill run."""
+class BallMillCase(Case):
+    """One ball-mill run: records every ``record_interval``; after the transient, pressure and
+    fracture maps, size distributions (with fragmentation) or force chains (without)."""
 
-    def __init__(self, values, sim, rng):
+    series = (Series("grains", "1", "grains in the mill"),
+              Series("fracture_events", "1", "cumulative fracture events"),
+              Series("dust_mass", "kg", "cumulative dust removed"),
+              Series("kinetic_energy", "J", "kinetic energy of the grains"),
+              Series("drive_torque", "N m", "torque the drive supplies (interval mean)"),
+              Series("drive_power", "W", "power the drive supplies (interval mean)"))
+
+    def __init__(self, values):
+        super().__init__()
         self.v = values
-        self.rng = rng
-        self.events = []  # (t, x, y, R, F)
-        self.dust_pending = 0.0  # removed dust mass not yet returned as a raw grain [kg]
-        self.dust_total = 0.0
-        self.raw_mass = values["density"] * math.pi * values["grain_radius"] ** 2 * values["thickness"]
-        self.initial_mass = self.grain_mass(sim)
-
-    def grain_mass(self, sim):
-        p = sim.particles
-        return float(self.mass(p.radius[p.body < 0]).sum())
+        self.sim, self.n_c, self.omega = build(values)
+        sim = self.sim
+        # the split draws and the refill placements share one generator (seed + 1)
+        self.rng = np.random.default_rng(values["seed"] + 1)
+        self.raw_mass = self.mass(values["grain_radius"])
+        self.split = (WeibullSplit(values["sieve_radius"], self.mass, "grain", self.rng)
+                      if values["fragmentation"] else None)
+        self.initial_mass = self.grain_mass()
+        self.record_steps = max(1, int(round(values["record_interval"] / sim.dt)))
+        self.total_steps = int(round(values["duration"] / sim.dt))
+        self.snap_every = max(1, int(round(values["snapshot_interval"] / values["record_interval"])))
+        cells = values["grid_cells"]
+        self.grid_edges = np.linspace(-values["drum_radius"], values["drum_radius"], cells + 1)
+        self.size_edges = np.linspace(values["sieve_radius"], values["grain_radius"] * (
+            1 + values["grain_radius_spread"]), values["size_classes"] + 1)
+        self.pressure_sum = np.zeros((cells, cells))
+        self.pressure_n = np.zeros((cells, cells))
+        self.snapshots, self.size_dist, self.chains = [], [], []
+        self.last = (sim.angular_impulse(body=0)[2], sim.work(body=0), sim.time)
+        self.count = 0
 
     def mass(self, r):
         return self.v["density"] * math.pi * np.asarray(r) ** 2 * self.v["thickness"]
 
-    def on_fracture(self, sim):
-        """Split every grain that broke in the last step; sieve the dust; refill.
+    def grain_mass(self):
+        p = self.sim.particles
+        return float(self.mass(p.radius[p.body < 0]).sum())
 
-        New fragments are twins of each other, of the other fragments created in the same step
-        that they overlap (children of twins that broke together) and of the parent's remaining
-        twins: all those overlaps are artefacts of the split, not compression.
-        """
-        p = sim.particles
-        parents, frag_x, frag_r, frag_v, frag_w, frag_parent = [], [], [], [], [], []
-        for i, j, force, _ in sim.pop_fractures():
-            if i in parents:
-                continue  # two contacts broke the same grain in one step: one split
-            d = p.x[i] - p.x[j]
-            centres, radii = split_disk(p.x[i].copy(), float(p.radius[i]), d / np.linalg.norm(d),
-                                        self.rng.uniform())
-            self.events.append((sim.time, p.x[i, 0], p.x[i, 1], float(p.radius[i]), force))
-            parents.append(i)
-            keep = radii >= self.v["sieve_radius"]
-            dust = float(self.mass(radii[~keep]).sum())
-            self.dust_pending += dust
-            self.dust_total += dust
-            for c, r in zip(centres[keep], radii[keep]):
-                # A fragment inherits the parent's rigid-body velocity at its centre.
-                frag_x.append(c)
-                frag_r.append(r)
-                frag_v.append(p.v[i] + np.cross(p.w[i], c - p.x[i]))
-                frag_w.append(p.w[i].copy())
-                frag_parent.append(i)
-        partners = {i: sim.twin_partners(i) for i in parents}
-        mask = np.zeros(sim.n_particles, bool)
-        mask[parents] = True
-        new_index = np.cumsum(~mask) - 1
-        sim.remove_particles(mask)
-        first = sim.n_particles
-        if frag_r:
-            sim.add_particles(np.array(frag_x), np.array(frag_r), "grain", v=np.array(frag_v),
-                              w=np.array(frag_w))
-            xs, rs = np.array(frag_x), np.array(frag_r)
-            for a in range(len(rs)):
-                for b in range(a + 1, len(rs)):
-                    if np.linalg.norm(xs[a] - xs[b]) < rs[a] + rs[b]:
-                        sim.mark_twins(first + a, first + b)
-                for q in partners[frag_parent[a]]:
-                    if not mask[q]:
-                        sim.mark_twins(first + a, int(new_index[q]))
-        self._refill(sim)
-
-    def _refill(self, sim):
-        """Return dust as raw grains (mass conserved exactly, constant filling)."""
-        while self.dust_pending >= self.raw_mass:
+    def on_events(self, sim):
+        """Split the grains that broke, then return dust as raw grains (constant filling)."""
+        self.split(sim)
+        while self.split.dust_pending >= self.raw_mass:
             p = sim.particles
-            xy, r = _random_grains(dict(self.v, grain_radius_spread=0.0), 1, self.rng, p.x[:, :2], p.radius)
+            xy, r = _random_grains(dict(self.v, grain_radius_spread=0.0), 1, self.rng,
+                                   p.x[:, :2], p.radius)
             sim.add_particles(np.column_stack([xy, np.zeros(1)]), r, "grain")
-            self.dust_pending -= self.raw_mass
+            self.split.dust_pending -= self.raw_mass
 
+    def chunk(self):
+        return min(self.record_steps, self.total_steps - self.sim.step)
 
-def run(values, ctx):
-    t_wall = time.perf_counter()
-    sim, n_c, omega = build(values)
-    rng = np.random.default_rng(values["seed"] + 1)
-    book = MillBookkeeping(values, sim, rng) if values["fragmentation"] else None
-    record_steps = max(1, int(round(values["record_interval"] / sim.dt)))
-    total_steps = int(round(values["duration"] / sim.dt))
-    snap_every = max(1, int(round(values["snapshot_interval"] / values["record_interval"])))
-    big = values["drum_radius"]
-    cells = values["grid_cells"]
-    grid_edges = np.linspace(-big, big, cells + 1)
-    size_edges = np.linspace(values["sieve_radius"], values["grain_radius"] * (1 + values["grain_radius_spread"]),
-                             values["size_classes"] + 1)
+    def done(self):
+        return self.sim.step >= self.total_steps
 
-    series = {k: [] for k in ("time", "grains", "fracture_events", "dust_mass", "kinetic_energy", "drive_torque", "drive_power")}
-    pressure_sum = np.zeros((cells, cells))
-    pressure_n = np.zeros((cells, cells))
-    snapshots, size_dist = [], []
-    chains = []
-    last = {"impulse": sim.body_impulse[0, 5], "work": sim.body_work[0], "time": sim.time, "count": 0}
+    def progress(self):
+        return self.sim.step / self.total_steps, f"{len(self.split.events) if self.split else 0} fractures"
 
-    def observe(s):
+    def after_chunk(self):
+        s, v = self.sim, self.v
         p = s.particles
         free = p.body < 0
-        dt_rec = s.time - last["time"]
-        series["time"].append(s.time)
-        series["grains"].append(int(free.sum()))
-        series["fracture_events"].append(len(book.events) if book else 0)
-        series["dust_mass"].append(book.dust_total if book else 0.0)
-        series["kinetic_energy"].append(s.kinetic_energy())
+        impulse, work = s.angular_impulse(body=0)[2], s.work(body=0)
+        span = s.time - self.last[2]
         # The charge's torque on the drum about z; the drive supplies the opposite.
-        series["drive_torque"].append(-(s.body_impulse[0, 5] - last["impulse"]) / dt_rec)
-        series["drive_power"].append((s.body_work[0] - last["work"]) / dt_rec)
-        last.update(impulse=s.body_impulse[0, 5], work=s.body_work[0], time=s.time)
-        last["count"] += 1
-        if s.time < values["transient"]:
+        self.record(s.time, grains=int(free.sum()),
+                    fracture_events=len(self.split.events) if self.split else 0,
+                    dust_mass=self.split.dust_total if self.split else 0.0,
+                    kinetic_energy=s.kinetic_energy(),
+                    drive_torque=-(impulse - self.last[0]) / span,
+                    drive_power=(work - self.last[1]) / span)
+        self.last = (impulse, work, s.time)
+        self.count += 1
+        if s.time < v["transient"]:
             return
-        pressure = p.fn_sum / (2 * math.pi * p.radius * values["thickness"])
-        ix = np.clip(np.digitize(p.x[free, 0], grid_edges) - 1, 0, cells - 1)
-        iy = np.clip(np.digitize(p.x[free, 1], grid_edges) - 1, 0, cells - 1)
-        np.add.at(pressure_sum, (iy, ix), pressure[free])
-        np.add.at(pressure_n, (iy, ix), 1)
-        if book and last["count"] % snap_every == 0:
-            snapshots.append(s.time)
-            mass = book.mass(p.radius[free])
-            size_dist.append(np.histogram(p.radius[free], bins=size_edges, weights=mass)[0])
-        if not book:
+        cells = v["grid_cells"]
+        pressure = p.fn_sum / (2 * math.pi * p.radius * v["thickness"])
+        ix = np.clip(np.digitize(p.x[free, 0], self.grid_edges) - 1, 0, cells - 1)
+        iy = np.clip(np.digitize(p.x[free, 1], self.grid_edges) - 1, 0, cells - 1)
+        np.add.at(self.pressure_sum, (iy, ix), pressure[free])
+        np.add.at(self.pressure_n, (iy, ix), 1)
+        if self.split and self.count % self.snap_every == 0:
+            self.snapshots.append(s.time)
+            mass = self.mass(p.radius[free])
+            self.size_dist.append(np.histogram(p.radius[free], bins=self.size_edges, weights=mass)[0])
+        if not self.split:
             i, j, _ = s.contact_pairs()
             grain = (p.body[i] < 0) & (p.body[j] < 0)
-            found = find_chains(p.x[:, :2], i[grain], j[grain], p.fn_sum, values["chain_threshold"])
-            chains.append((found, p.fn_sum.copy(), pressure))
-        ctx.snapshot(s)
+            found = find_chains(p.x[:, :2], i[grain], j[grain], p.fn_sum, v["chain_threshold"])
+            self.chains.append((found, p.fn_sum.copy(), pressure))
 
-    ctx.snapshot(sim)
-    sim.run(total_steps, chunk=record_steps, observer=observe, progress=ctx.progress,
-            on_fracture=book.on_fracture if book else None)
+    def finish(self):
+        v = self.v
+        edges = self.grid_edges
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        coords = {"gx": ("gx", centres, {"units": "m", "long_name": "map cell centre x"}),
+                  "gy": ("gy", centres, {"units": "m", "long_name": "map cell centre y"})}
+        data = {}
+        with np.errstate(invalid="ignore"):
+            data["pressure"] = (("gy", "gx"), np.where(self.pressure_n > 0, self.pressure_sum
+                                                       / np.maximum(self.pressure_n, 1), np.nan),
+                                {"units": "Pa", "long_name": "time-averaged grain pressure (normal "
+                                                             "forces / perimeter area)"})
+        power = self.recorded("drive_power")
+        steady = self.recorded_times() >= v["transient"]
+        data["mean_drive_power"] = ((), float(np.mean(power[steady])) if steady.any() else np.nan,
+                                    {"units": "W", "long_name": "steady-state mean drive power"})
+        data["n_c"] = ((), self.n_c, {"units": "s-1", "long_name": "critical speed (rev/s)"})
+        data["n_over_nc"] = ((), v["n_over_nc"], {"units": "1", "long_name": "rotation speed / critical speed"})
+        if self.split:
+            self._fracture_outputs(data, coords)
+        else:
+            stats = chain_statistics(self.chains)
+            coords["chain_length"] = ("chain_length", stats["lengths"], {"units": "1", "long_name": "grains in the chain"})
+            coords["chain_position"] = ("chain_position", stats["position"], {"units": "1", "long_name": "relative position along the chain"})
+            data["chain_count"] = ("chain_length", stats["count"], {"units": "1", "long_name": "chains per length (all records)"})
+            data["chain_max_pressure"] = ("chain_length", stats["max_pressure"], {"units": "Pa", "long_name": "mean of the largest grain pressure in a chain"})
+            data["chain_force_profile"] = ("chain_position", stats["load_profile"], {"units": "N", "long_name": "mean normal-force sum vs position in chain"})
+        extra = {"critical_speed_rev_s": self.n_c, "rotation_rate_rad_s": self.omega}
+        return data, coords, extra
 
-    coords = {
-        "time": ("time", np.array(series.pop("time")), {"units": "s", "long_name": "simulated time"}),
-        "gx": ("gx", 0.5 * (grid_edges[1:] + grid_edges[:-1]), {"units": "m", "long_name": "map cell centre x"}),
-        "gy": ("gy", 0.5 * (grid_edges[1:] + grid_edges[:-1]), {"units": "m", "long_name": "map cell centre y"}),
-    }
-    units = {"grains": ("1", "grains in the mill"), "fracture_events": ("1", "cumulative fracture events"),
-             "dust_mass": ("kg", "cumulative dust removed"), "kinetic_energy": ("J", "kinetic energy of the grains"),
-             "drive_torque": ("N m", "torque the drive supplies (interval mean)"),
-             "drive_power": ("W", "power the drive supplies (interval mean)")}
-    data = {k: ("time", np.asarray(vals, dtype=float), {"units": units[k][0], "long_name": units[k][1]})
-            for k, vals in series.items()}
-    with np.errstate(invalid="ignore"):
-        data["pressure"] = (("gy", "gx"), np.where(pressure_n > 0, pressure_sum / np.maximum(pressure_n, 1), np.nan),
-                            {"units": "Pa", "long_name": "time-averaged grain pressure (normal forces / perimeter area)"})
-    steady = coords["time"][1] >= values["transient"]
-    data["mean_drive_power"] = ((), float(np.mean(data["drive_power"][1][steady])) if steady.any() else np.nan,
-                                {"units": "W", "long_name": "steady-state mean drive power"})
-    data["n_c"] = ((), n_c, {"units": "s-1", "long_name": "critical speed (rev/s)"})
-    data["n_over_nc"] = ((), values["n_over_nc"], {"units": "1", "long_name": "rotation speed / critical speed"})
-    if book:
-        ev = np.array(book.events).reshape(-1, 5)
+    def _fracture_outputs(self, data, coords):
+        v, split = self.v, self.split
+        edges = self.grid_edges
+        ev = np.array(split.events).reshape(-1, 5)
         coords["event"] = ("event", np.arange(len(ev)), {"units": "1", "long_name": "fracture event index"})
         for col, (name, unit, long) in enumerate([("event_time", "s", "time of fracture"),
                                                   ("event_x", "m", "x of the breaking grain"),
@@ -330,34 +300,25 @@ def run(values, ctx):
                                                   ("event_radius", "m", "radius of the breaking grain"),
                                                   ("event_force", "N", "peak normal force of the breaking contact")]):
             data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
-        window = values["duration"] - values["transient"]
-        rate, half, _ = steady_rate(ev[:, 0], values["transient"], values["duration"], values["rate_blocks"])
+        window = v["duration"] - v["transient"]
+        rate, half, _ = steady_rate(ev[:, 0], v["transient"], v["duration"], v["rate_blocks"])
         data["comminution_rate"] = ((), rate, {"units": "s-1", "long_name": "steady-state fracture events per second"})
         data["comminution_rate_ci"] = ((), half, {"units": "s-1", "long_name": "95% half-width (block averages)"})
-        after = ev[:, 0] >= values["transient"]
-        hist = np.histogram2d(ev[after, 1], ev[after, 2], bins=[grid_edges, grid_edges])[0].T
-        cell_area = (grid_edges[1] - grid_edges[0]) ** 2
+        after = ev[:, 0] >= v["transient"]
+        hist = np.histogram2d(ev[after, 1], ev[after, 2], bins=[edges, edges])[0].T
+        cell_area = (edges[1] - edges[0]) ** 2
         data["fracture_frequency"] = (("gy", "gx"), hist / (window * cell_area),
                                       {"units": "s-1 m-2", "long_name": "fracture events per time and area"})
-        coords["snapshot"] = ("snapshot", np.array(snapshots), {"units": "s", "long_name": "size snapshot time"})
-        coords["size_class"] = ("size_class", 0.5 * (size_edges[1:] + size_edges[:-1]), {"units": "m", "long_name": "grain radius class centre"})
-        data["size_class_edges"] = ("size_class_edge", size_edges, {"units": "m", "long_name": "radius class edges"})
-        data["size_distribution"] = (("snapshot", "size_class"), np.array(size_dist).reshape(-1, values["size_classes"]),
+        coords["snapshot"] = ("snapshot", np.array(self.snapshots), {"units": "s", "long_name": "size snapshot time"})
+        coords["size_class"] = ("size_class", 0.5 * (self.size_edges[1:] + self.size_edges[:-1]),
+                                {"units": "m", "long_name": "grain radius class centre"})
+        data["size_class_edges"] = ("size_class_edge", self.size_edges, {"units": "m", "long_name": "radius class edges"})
+        data["size_distribution"] = (("snapshot", "size_class"),
+                                     np.array(self.size_dist).reshape(-1, v["size_classes"]),
                                      {"units": "kg", "long_name": "grain mass per radius class"})
-        data["mass_balance_error"] = ((), book.grain_mass(sim) + book.dust_pending - book.initial_mass,
+        data["mass_balance_error"] = ((), self.grain_mass() + split.dust_pending - self.initial_mass,
                                       {"units": "kg", "long_name": "grains + pending dust - initial grain mass"})
-    else:
-        stats = chain_statistics(chains)
-        coords["chain_length"] = ("chain_length", stats["lengths"], {"units": "1", "long_name": "grains in the chain"})
-        coords["chain_position"] = ("chain_position", stats["position"], {"units": "1", "long_name": "relative position along the chain"})
-        data["chain_count"] = ("chain_length", stats["count"], {"units": "1", "long_name": "chains per length (all records)"})
-        data["chain_max_pressure"] = ("chain_length", stats["max_pressure"], {"units": "Pa", "long_name": "mean of the largest grain pressure in a chain"})
-        data["chain_force_profile"] = ("chain_position", stats["load_profile"], {"units": "N", "long_name": "mean normal-force sum vs position in chain"})
-    ds = xr.Dataset(data, coords=coords)
-    return ds, RunInfo(seed=values["seed"], dt=sim.dt, steps=sim.step, wall_time_s=time.perf_counter() - t_wall,
-                       extra={"dt_limit": sim.dt_report.limit, "critical_speed_rev_s": n_c,
-                              "rotation_rate_rad_s": omega})
 
 
 register(Scene("ballmill2d", "2D ball mill with lifters: comminution rate, maps, force chains (seed 000)",
-               PARAMS, run, (_check,)))
+               PARAMS, BallMillCase, (_check,)))

@@ -1,16 +1,20 @@
 """What every scene shares: declared parameters with units and ranges, and the scene registry.
 
-A scene is a named recipe that builds a :class:`~millsim.engine.Simulation`, chooses the physics it
-needs, runs it and returns an ``xarray.Dataset`` of its outputs. Parameters are declared once, with
-type, default, unit and allowed range, so the command line, the Snakemake schema and the case file
-all describe the same thing, and bad input is refused with the key and its range before any work.
+A scene is a declaration: its parameters, and ``build(values)``, which makes a
+:class:`~millsim.scenes.driver.Case` (the Simulation with the physics it needs, what it records,
+when it is done, its summaries); :func:`~millsim.scenes.driver.drive` runs every scene the same
+way. Parameters are declared once, with type, default, unit and allowed range, so the command
+line, the Snakemake schema and the case file all describe the same thing, and bad input is refused
+with the key and its range before any work.
 """
 
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..engine.materials import check_range
+from ..engine import StepPolicy
+
+from ..util.validation import check_range
 
 
 @dataclass(frozen=True)
@@ -81,8 +85,14 @@ class Scene:
     name: str
     summary: str
     params: tuple
-    run: Callable  # run(values: dict, ctx: RunContext) -> (xarray.Dataset, RunInfo)
+    build: Callable  # build(values: dict) -> driver.Case
     checks: tuple = field(default=())  # callables(values) raising ValueError on inconsistent combos
+
+    def run(self, values, ctx=None, out=None):
+        """Drive one case with resolved ``values`` (see :func:`~millsim.scenes.driver.drive`)."""
+        from .driver import drive
+
+        return drive(self, values, ctx or RunContext(), out)
 
     def resolve(self, overrides: dict) -> dict:
         """Defaults overridden by ``overrides`` (strings or values), each parsed and range-checked."""
@@ -110,12 +120,29 @@ SOLID_PARAMS = (
 )
 
 
+# Every scene takes the engine's time-step policy (engine.timestep): a factor on the recommended
+# step of the particles present, or an absolute step.
+TIME_STEP_PARAMS = (
+    Param("dt_factor", 1.0, "time step as a multiple of the engine's recommended step (followed as "
+          "fragments appear); the limit is 5x the recommended step for contacts", "1", 0.0,
+          lo_open=True),
+    Param("dt", 0.0, "absolute time step; 0 = dt_factor x the recommended step", "s", 0.0),
+)
+
+
+def step_policy(values, **kw):
+    """The engine's StepPolicy from a scene's TIME_STEP_PARAMS (and impact_speed etc. in kw)."""
+    return StepPolicy(dt=values["dt"] or None, dt_factor=values["dt_factor"], **kw)
+
+
 @dataclass
 class RunContext:
-    """How a run reports: progress lines, and optional particle snapshots (HDF5 + XDMF)."""
+    """How a run reports and runs: progress lines on stderr, optional particle snapshots (HDF5 +
+    XDMF), and the numba threads of the compiled loop (None: all)."""
 
     progress: bool = False
     snapshots: Any = None  # a millsim.io.SnapshotWriter, or None
+    threads: int = None
 
     def snapshot(self, sim):
         """Write one frame of ``sim`` if snapshots were requested."""
@@ -124,17 +151,6 @@ class RunContext:
         p = sim.particles
         self.snapshots.write(sim.time, p.x, p.radius, p.v, angular_velocity=p.w,
                              kinematic=(p.body >= 0).astype("int32"))
-
-
-@dataclass
-class RunInfo:
-    """What the case file needs to know about how a run went."""
-
-    seed: int
-    dt: float
-    steps: int
-    wall_time_s: float
-    extra: dict = field(default_factory=dict)
 
 
 REGISTRY: dict = {}

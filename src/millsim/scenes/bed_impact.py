@@ -33,17 +33,16 @@ count, an energy book and every breakage event.
 """
 
 import math
-import time
 
 import numpy as np
-import xarray as xr
 
-from ..analysis import bed_impact as _analysis  # noqa: F401 (registers the aggregate summary)
-from ..breakage import tavares
-from ..breakage.replacement import BREAKAGE_AT, TavaresReplacement
-from ..breakage.replacement import product_passing as replacement_passing
-from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from .base import Param, RunInfo, Scene, register
+from ..engine import Guards, PhysicsSpec, Simulation
+from ..models import Interaction, Material, MaterialTable, TavaresModel
+from ..models.breakage import tavares
+from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement
+from ..models.breakage.replacement import product_passing as replacement_passing
+from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .driver import Case, Series
 
 G = 9.81
 MATERIALS = ("copper_ore", "limestone", "granulite")
@@ -51,12 +50,10 @@ BROKEN_SIEVE = 4.75e-3  # m: "mass of material passing the initial narrow size" 
 # sqrt(2) test-sieve series [m], 6.3 mm down to 38 um (seed Fig. 23 reaches 0.1 mm)
 SIEVES = np.array([6.3, 4.75, 3.35, 2.36, 1.7, 1.18, 0.85, 0.6, 0.425, 0.3, 0.212, 0.15, 0.106,
                    0.075, 0.053, 0.038]) * 1e-3
-HOLDER_OFF_RADIUS = 1e3  # m: the removed holder
 X_MIN = tavares.SIEVE_RATIO ** -tavares.STANDARD_CLASSES  # dummy size / parent size
 
 # One compiled variant for the whole scene (and its tests).
-SPEC = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, gravity=True,
-                   fracture="tavares", rolling_friction=True)
+SPEC = PhysicsSpec(dim=3, walls=True, gravity=True, rolling_friction=True)
 
 PARAMS = (
     Param("material", "copper_ore", "bed material (config/materials.yaml, seed 002 Tables 4-5)",
@@ -85,7 +82,7 @@ PARAMS = (
           lo_open=True),
     Param("max_time", 0.02, "end at the latest this long after first contact", "s", 0.0, lo_open=True),
     Param("record_interval", 2e-5, "time-series cadence", "s", 0.0, lo_open=True),
-    Param("dt", 0.0, "time step; 0 = the engine's recommended step for the smallest fragment", "s", 0.0),
+    *TIME_STEP_PARAMS,
     Param("max_overlap", 1.5, "guard: overlap / smaller radius that stops the run (small unbreakable "
           "fragments nipped by the ball reach ~0.6-1)", "1", 0.0, 5.0, lo_open=True),
     Param("v_max", 1000.0, "guard: particle speed that stops the run (small fragments released from "
@@ -179,49 +176,27 @@ def material_table(values, tav):
 
 # ---- bookkeeping of progeny ---------------------------------------------------------------------
 class _Tracker:
-    """Wraps the replacement handler; keeps per-particle tags in step with adds and removals:
-    the original bed particle each one comes from, its generation, and whether it is a dummy
-    sphere (and the t10' of the event that made it, for eq 11)."""
+    """Wraps the replacement handler and keeps one row per breakage event. The per-particle
+    bookkeeping (the original bed particle each one comes from, its generation, whether it is a
+    dummy sphere and the t10' of the event that made it, for eq 11) are the simulation's tags,
+    which the replacement hands on to the progeny."""
 
-    def __init__(self, replace, mat, n, values):
-        self.replace, self.mat, self.values = replace, mat, values
-        self.origin = np.arange(n) - 1  # particle 0 is the ball (-1)
-        self.generation = np.zeros(n, dtype=int)
-        self.dummy = np.zeros(n, dtype=bool)
-        self.dummy_t10 = np.zeros(n)
+    def __init__(self, replace, mat):
+        self.replace, self.mat = replace, mat
         self.event_rows = []  # per event: time, x, y, z, radial, generation, origin, ...
 
     def __call__(self, sim):
         before = len(self.replace.events)
         ball_xy = sim.particles.x[0, :2].copy()
         self.replace(sim)
-        parents = self.replace.last_broken
-        new_events = self.replace.events[before:]
-        broken = np.zeros(len(self.origin), dtype=bool)
-        broken[parents] = True
-        origin, gen, dummy, t10s = [], [], [], []
-        for parent, ev in zip(parents, new_events):
-            k = ev.progeny
-            nd = 0
-            if self.replace.dummy_as == "spheres":
-                K = tavares.family_classes_for(self.mat, ev.parent_diameter, self.replace.d_min,
-                                               self.replace.policy)
-                nd = int(tavares.families(self.mat, ev.t10, K).dummy_counts[ev.family])
-            origin += [self.origin[parent]] * k
-            gen += [self.generation[parent] + 1] * k
-            dummy += [False] * (k - nd) + [True] * nd
-            t10s += [ev.t10] * k
+        parent = self.replace.last_parent_tags
+        for ev, gen, origin in zip(self.replace.events[before:], parent["generation"],
+                                   parent["origin"]):
             radial = float(np.hypot(*(ev.position[:2] - ball_xy)))
-            self.event_rows.append((ev.time, *ev.position, radial, self.generation[parent],
-                                    self.origin[parent], ev.parent_diameter, ev.specific_energy,
-                                    ev.fracture_energy, ev.t10, ev.progeny, ev.fines_mass,
+            self.event_rows.append((ev.time, *ev.position, radial, gen, origin,
+                                    ev.parent_diameter, ev.specific_energy, ev.fracture_energy,
+                                    ev.t10, ev.progeny, ev.fines_mass,
                                     sphere_mass(self.mat.density, ev.parent_diameter)))
-        keep = ~broken
-        self.origin = np.concatenate([self.origin[keep], origin]).astype(int)
-        self.generation = np.concatenate([self.generation[keep], gen]).astype(int)
-        self.dummy = np.concatenate([self.dummy[keep], np.array(dummy, dtype=bool)])
-        self.dummy_t10 = np.concatenate([self.dummy_t10[keep], t10s])
-        assert len(self.origin) == sim.n_particles
 
 
 EVENT_FIELDS = (
@@ -260,208 +235,230 @@ def product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat, 
 
 
 # ---- the run ------------------------------------------------------------------------------------
-def run(values, ctx):
-    t_wall = time.perf_counter()
-    tav = tavares.load_materials(values["materials_file"], truncation="bed")
-    name = values["material"]
-    mat = tav[name]
-    table = material_table(values, tav)
-    d = values["particle_diameter"]
-    r = 0.5 * d
-    d_min = tavares.global_min_size(d, values["d_min_ratio"])
-    v0 = ball_speed(values["impact_energy"], values["ball_mass"])
-    Rb = 0.5 * values["ball_diameter"]
+class BedImpactCase(Case):
+    """Settle the bed (breakage off), then drop the ball: fine chunks until the first contact
+    (the holder of a multi-layer bed is taken away then), records every ``record_interval``;
+    done once the ball has rebounded clear for ``release_time`` or after ``max_time``."""
 
-    x_bed = bed_positions(values["rings"], values["layers"], d, values["spacing"])
-    n_bed = len(x_bed)
-    anvil = dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")
-    walls = [anvil]
-    holder = values["layers"] > 1
-    if holder:
-        radius_h = float(np.hypot(x_bed[:, 0], x_bed[:, 1]).max()) + r + values["holder_gap"] * d
-        walls.append(dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 0, 1), radius=radius_h,
-                          material="steel"))
-    skin = 0.1 * d
+    series = (Series("ball_z", "m", "height of the ball centre"),
+              Series("ball_vz", "m s-1", "vertical velocity of the ball"),
+              Series("ball_force", "N", "vertical force of bed and anvil on the ball"),
+              Series("n_particles", "1", "bed particles and fragments (resolved spheres)"),
+              Series("bed_kinetic_energy", "J", "kinetic energy (translation) of bed particles and fragments"),
+              Series("ball_energy", "J", "kinetic + potential (z = 0) energy of the ball"),
+              Series("broken_events", "1", "cumulative breakage events"),
+              Series("max_fragment_speed", "m s-1", "largest speed of a bed particle or fragment"))
 
-    # stage 1: settle (breakage off: every fracture energy stays infinite)
-    settle = Simulation(SPEC, table, x=x_bed, radius=np.full(n_bed, r), material=name, walls=walls,
-                        skin=skin, impact_speed=1.0, seed=values["seed"], breakage={})
-    settle_steps = int(round(values["settle_time"] / settle.dt))
-    if settle_steps:
-        settle.run(settle_steps, chunk=max(1, settle_steps // 4))
-    p = settle.particles
-    x_set, v_set, w_set = p.x.copy(), p.v.copy(), p.w.copy()
-    settle_ke = settle.kinetic_energy()
+    def __init__(self, values):
+        super().__init__()
+        self.values = values
+        self.tav = tavares.load_materials(values["materials_file"], truncation="bed")
+        self.mat = self.tav[values["material"]]
+        self.table = material_table(values, self.tav)
+        d = values["particle_diameter"]
+        self.r = r = 0.5 * d
+        self.d_min = tavares.global_min_size(d, values["d_min_ratio"])
+        self.v0 = ball_speed(values["impact_energy"], values["ball_mass"])
+        self.x_bed = bed_positions(values["rings"], values["layers"], d, values["spacing"])
+        self.n_bed = len(self.x_bed)
+        self.walls = [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")]
+        self.holder = values["layers"] > 1
+        if self.holder:
+            radius_h = float(np.hypot(self.x_bed[:, 0], self.x_bed[:, 1]).max()) + r \
+                + values["holder_gap"] * d
+            self.walls.append(dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 0, 1),
+                                   radius=radius_h, material="steel"))
+        self.skin = 0.1 * d
+        # stage 1: settle (breakage off: every fracture energy stays infinite)
+        self.sim = self.settle = Simulation(SPEC, self.table, x=self.x_bed,
+                                            radius=np.full(self.n_bed, r),
+                                            material=values["material"], walls=self.walls,
+                                            skin=self.skin, breakage=TavaresModel({}))
+        self.settle_steps = int(round(values["settle_time"] / self.settle.dt))
+        self.settle_left = self.settle_steps
+        self.dropping = False
+        self.t_contact = self.t_clear = None
+        self.finished = False
+        self.touched_radial = 0.0
+        if self.settle_steps == 0:
+            self._drop()
 
-    # stage 2: the drop
-    top = float((x_set[:, 2] + r).max())
-    gap = values["ball_gap"]
-    v_start = math.sqrt(max(v0**2 - 2.0 * G * gap, 0.0))
-    x_ball = np.array([0.0, 0.0, top + gap + Rb])
-    x_all = np.vstack([x_ball, x_set])
-    v_all = np.vstack([[0.0, 0.0, -v_start], v_set])
-    w_all = np.vstack([np.zeros(3), w_set])
-    radius = np.concatenate([[Rb], np.full(n_bed, r)])
-    material = ["steel"] + [name] * n_bed
-    sim = Simulation(SPEC, table, x=x_all, radius=radius, material=material, v=v_all, w=w_all,
-                     walls=walls, skin=skin, impact_speed=max(v0, 1.0),
-                     max_overlap=values["max_overlap"], v_max=values["v_max"], seed=values["seed"],
-                     breakage={name: (mat.gamma, mat.e_min)}, smallest_radius=0.5 * d_min,
-                     dt=values["dt"] or None)
-    replace = TavaresReplacement({name: mat}, d_min=d_min, seed=values["seed"],
-                                 dummy_as=values["dummy_as"], breakage_at=values["breakage_at"])
-    replace.assign_fracture_energies(sim, np.arange(1, n_bed + 1))
-    tracker = _Tracker(replace, mat, n_bed + 1, values)
-    bed_mass0 = replace.resolved_mass(sim)
-    m_ball = 1.0 / sim.particles.inv_mass[0]
-    e_ball0 = 0.5 * m_ball * v_start**2 + m_ball * G * x_ball[2]
+    def _drop(self):
+        """Stage 2: the ball above the settled bed."""
+        values, r, settle = self.values, self.r, self.settle
+        name, mat = values["material"], self.mat
+        p = settle.particles
+        x_set, v_set, w_set = p.x.copy(), p.v.copy(), p.w.copy()
+        self.settle_ke = settle.kinetic_energy()
+        Rb = 0.5 * values["ball_diameter"]
+        top = float((x_set[:, 2] + r).max())
+        gap = self.gap = values["ball_gap"]
+        self.v_start = math.sqrt(max(self.v0**2 - 2.0 * G * gap, 0.0))
+        x_ball = np.array([0.0, 0.0, top + gap + Rb])
+        sim = self.sim = Simulation(
+            SPEC, self.table, x=np.vstack([x_ball, x_set]),
+            radius=np.concatenate([[Rb], np.full(self.n_bed, r)]),
+            material=["steel"] + [name] * self.n_bed,
+            v=np.vstack([[0.0, 0.0, -self.v_start], v_set]), w=np.vstack([np.zeros(3), w_set]),
+            walls=self.walls, skin=self.skin,
+            step=step_policy(values, impact_speed=max(self.v0, 1.0),
+                             smallest_radius=0.5 * self.d_min),
+            guards=Guards(max_overlap=values["max_overlap"], v_max=values["v_max"]),
+            breakage=TavaresModel({name: (mat.gamma, mat.e_min)}),
+            # particle 0 is the ball (origin -1)
+            tags={"origin": np.arange(self.n_bed + 1) - 1,
+                  "generation": np.zeros(self.n_bed + 1, dtype=int),
+                  "dummy": np.zeros(self.n_bed + 1, dtype=bool),
+                  "event_t10": np.zeros(self.n_bed + 1)})
+        self.replace = TavaresReplacement({name: mat}, d_min=self.d_min, seed=values["seed"],
+                                          dummy_as=values["dummy_as"],
+                                          breakage_at=values["breakage_at"])
+        self.replace.assign_fracture_energies(sim, np.arange(1, self.n_bed + 1))
+        self.tracker = _Tracker(self.replace, mat)
+        self.bed_mass0 = self.replace.resolved_mass(sim)
+        self.m_ball = 1.0 / sim.particles.inv_mass[0]
+        self.e_ball0 = 0.5 * self.m_ball * self.v_start**2 + self.m_ball * G * x_ball[2]
+        self.record_steps = max(1, int(round(values["record_interval"] / sim.dt)))
+        self.probe = max(1, self.record_steps // 20)  # finer chunks until the first contact
+        self.dropping = True
+        self._observe()
 
-    dt = sim.dt
-    record = max(1, int(round(values["record_interval"] / dt)))
-    probe = max(1, record // 20)  # finer chunks until the first contact
-    series = {k: [] for k in ("time", "ball_z", "ball_vz", "ball_force", "n_particles",
-                              "bed_kinetic_energy", "ball_energy", "broken_events",
-                              "max_fragment_speed")}
-    touched_radial = [0.0]
-
-    def ball_contacts(s):
-        q = s.particles
+    def _ball_contacts(self):
+        q = self.sim.particles
         dist = np.linalg.norm(q.x[1:] - q.x[0], axis=1)
         return np.flatnonzero(dist < q.radius[1:] + q.radius[0]) + 1
 
-    def observe(s):
+    def _observe(self):
+        s, m_ball = self.sim, self.m_ball
         q = s.particles
         m = s.masses()
-        ke_bed = float(0.5 * (m[1:] * (q.v[1:] ** 2).sum(1)).sum())
         vb = q.v[0]
-        e_b = 0.5 * m_ball * float(vb @ vb) + m_ball * G * float(q.x[0, 2])
-        series["time"].append(s.time)
-        series["ball_z"].append(float(q.x[0, 2]))
-        series["ball_vz"].append(float(vb[2]))
-        series["ball_force"].append(float(m_ball * (q.acc[0, 2] + G)))
-        series["n_particles"].append(s.n_particles - 1)
-        series["bed_kinetic_energy"].append(ke_bed)
-        series["ball_energy"].append(e_b)
-        series["broken_events"].append(len(replace.events))
-        series["max_fragment_speed"].append(float(np.linalg.norm(q.v[1:], axis=1).max()))
-        hit = ball_contacts(s)
+        self.record(s.time, ball_z=float(q.x[0, 2]), ball_vz=float(vb[2]),
+                    ball_force=float(m_ball * (q.acc[0, 2] + G)), n_particles=s.n_particles - 1,
+                    bed_kinetic_energy=float(0.5 * (m[1:] * (q.v[1:] ** 2).sum(1)).sum()),
+                    ball_energy=0.5 * m_ball * float(vb @ vb) + m_ball * G * float(q.x[0, 2]),
+                    broken_events=len(self.replace.events),
+                    max_fragment_speed=float(np.linalg.norm(q.v[1:], axis=1).max()))
+        hit = self._ball_contacts()
         if len(hit):
             rad = np.hypot(*(q.x[hit, :2] - q.x[0, :2]).T)
-            touched_radial[0] = max(touched_radial[0], float(rad.max()))
-        ctx.snapshot(s)
+            self.touched_radial = max(self.touched_radial, float(rad.max()))
 
-    t_contact = None
-    t_clear = None
-    observe(sim)
-    ctx_progress_next = 0.0
-    while True:
-        chunk = probe if t_contact is None else record
-        sim.run(chunk, chunk=chunk, on_fracture=tracker)
-        hit = ball_contacts(sim)
-        if t_contact is None:
+    def on_events(self, sim):
+        self.tracker(sim)
+
+    def chunk(self):
+        if not self.dropping:
+            return min(max(1, self.settle_steps // 4), self.settle_left)
+        return self.probe if self.t_contact is None else self.record_steps
+
+    def after_chunk(self):
+        if not self.dropping:
+            self.settle_left -= self.chunk()
+            if self.settle_left == 0:
+                self._drop()
+            return
+        sim, values = self.sim, self.values
+        hit = self._ball_contacts()
+        if self.t_contact is None:
             if len(hit):
-                t_contact = sim.time
-                if holder:
-                    sim.walls[1, 7] = HOLDER_OFF_RADIUS
-            elif sim.time > 10 * (gap / max(v_start, 1e-3)) + 0.01:
+                self.t_contact = sim.time
+                if self.holder:
+                    sim.disable_wall(1)
+            elif sim.time > 10 * (self.gap / max(self.v_start, 1e-3)) + 0.01:
                 raise RuntimeError("bed_impact: the ball never reached the bed")
-            if sim.step % record < chunk:
-                observe(sim)
-            continue
-        observe(sim)
-        if ctx.progress and sim.time - t_contact >= ctx_progress_next:
-            print(f"[millsim] t - t_contact = {1e3 * (sim.time - t_contact):.3f} ms, "
-                  f"{sim.n_particles - 1} particles, {len(replace.events)} breakage events, "
-                  f"ball vz = {sim.particles.v[0, 2]:.3f} m/s", flush=True)
-            ctx_progress_next += 1e-3
+            if sim.step % self.record_steps < self.probe:
+                self._observe()
+            return
+        self._observe()
         rebounding = sim.particles.v[0, 2] > 0
         if len(hit) or not rebounding:
-            t_clear = None
-        elif t_clear is None:
-            t_clear = sim.time
-        if t_clear is not None and sim.time - t_clear >= values["release_time"]:
-            break
-        if sim.time - t_contact >= values["max_time"]:
-            break
+            self.t_clear = None
+        elif self.t_clear is None:
+            self.t_clear = sim.time
+        if self.t_clear is not None and sim.time - self.t_clear >= values["release_time"]:
+            self.finished = True
+        if sim.time - self.t_contact >= values["max_time"]:
+            self.finished = True
 
-    # ---- outputs ----
-    q = sim.particles
-    bed = np.arange(1, sim.n_particles)
-    sizes = 2.0 * q.radius[bed]
-    masses = sim.masses()[bed]
-    dummy = tracker.dummy[bed]
-    dummy_t10 = tracker.dummy_t10[bed]
-    events = tracker.event_rows
-    fines = replace.fines_mass
-    total = float(masses.sum() + fines)
-    t10_recorded = q.t10_recorded[bed]
-    passing = product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat)
-    passing_total = product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat,
-                                    np.array([BROKEN_SIEVE]))[0]
-    broken_mass = float(passing_total)
-    gen0 = [row for row in events if row[5] == 0]
-    capture = max((row[4] for row in gen0), default=0.0)
-    broken_originals = len({int(row[6]) for row in events})
-    absorbed = float(sum(row[8] * row[13] for row in events))
-    ev = np.array(events, dtype=float).reshape(-1, len(EVENT_FIELDS))
+    def done(self):
+        return self.finished
 
-    coords = {
-        "time": ("time", np.array(series.pop("time")), {"units": "s", "long_name": "simulated time"}),
-        "sieve": ("sieve", SIEVES, {"units": "m", "long_name": "sieve aperture"}),
-        "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event index"}),
-    }
-    meta = {"ball_z": ("m", "height of the ball centre"),
-            "ball_vz": ("m s-1", "vertical velocity of the ball"),
-            "ball_force": ("N", "vertical force of bed and anvil on the ball"),
-            "n_particles": ("1", "bed particles and fragments (resolved spheres)"),
-            "bed_kinetic_energy": ("J", "kinetic energy (translation) of bed particles and fragments"),
-            "ball_energy": ("J", "kinetic + potential (z = 0) energy of the ball"),
-            "broken_events": ("1", "cumulative breakage events"),
-            "max_fragment_speed": ("m s-1", "largest speed of a bed particle or fragment")}
-    data = {k: ("time", np.asarray(vals, dtype=float), {"units": meta[k][0], "long_name": meta[k][1]})
-            for k, vals in series.items()}
-    for col, (key, unit, long) in enumerate(EVENT_FIELDS):
-        data[key] = ("event", ev[:, col], {"units": unit, "long_name": long})
-    scalars = {
-        "bed_mass": (bed_mass0, "kg", "initial bed mass (particles x sphere mass)"),
-        "n_bed_particles": (n_bed, "1", "particles in the bed"),
-        "broken_mass": (broken_mass, "kg", "mass passing 4.75 mm after impact (broken mass)"),
-        "broken_fraction": (broken_mass / bed_mass0, "1", "broken mass / bed mass"),
-        "capture_radius": (capture, "m",
-                           "largest distance from the ball's axis of an original bed particle that broke"),
-        "touched_radius": (touched_radial[0], "m",
-                           "largest distance from the ball's axis of a particle the ball touched (recorded cadence)"),
-        "broken_particles": (broken_originals, "1", "original bed particles that broke"),
-        "breakage_events": (len(events), "1", "breakage events (all generations)"),
-        "unbreakable_records": (len(replace.records), "1",
-                                "resolved-unbreakable particles that reached their fracture energy (eq 13 applied)"),
-        "unbreakable_recorded_mass": (float(masses[np.isfinite(t10_recorded)].sum()), "kg",
-                                      "their mass, spread by eq 13 in the product distribution"),
-        "fines_mass": (fines, "kg", "unresolved fines (dummy_as = fines)"),
-        "dummy_mass": (float(masses[dummy].sum()), "kg", "mass of the dummy spheres (fines below x_min of their parent)"),
-        "mass_balance_error": (total - bed_mass0, "kg", "resolved + fines - initial bed mass"),
-        "impact_speed": (v0, "m s-1", "ball speed at first contact"),
-        "ball_energy_initial": (e_ball0, "J", "ball kinetic + potential energy at the start"),
-        "ball_energy_final": (series["ball_energy"][-1], "J", "ball kinetic + potential energy at the end"),
-        "breakage_energy": (absorbed, "J", "absorbed energy of the breaking events (sum of Ek')"),
-        "settle_kinetic_energy": (settle_ke, "J", "bed kinetic energy left after settling"),
-        "contact_time": (sim.time - t_contact, "s", "time from first contact to the end of the run"),
-        "first_contact_time": (t_contact, "s", "time of the first ball-bed contact (holder removed)"),
-    }
-    for key, (val, unit, long) in scalars.items():
-        data[key] = ((), float(val), {"units": unit, "long_name": long})
-    data["passing"] = ("sieve", passing, {"units": "kg", "long_name": "bed mass passing the sieve"})
-    data["passing_fraction"] = ("sieve", passing / bed_mass0,
-                                {"units": "1", "long_name": "cumulative fraction passing (incl. fines)"})
-    ds = xr.Dataset(data, coords=coords)
-    return ds, RunInfo(seed=values["seed"], dt=dt, steps=sim.step + settle_steps,
-                       wall_time_s=time.perf_counter() - t_wall,
-                       extra={"dt_limit": sim.dt_report.limit, "settle_dt": settle.dt,
-                              "settle_steps": settle_steps, "impact_steps": sim.step,
-                              "d_min": d_min, "ball_density": ball_density(values["ball_mass"],
-                                                                            values["ball_diameter"]),
-                              "holder_radius": float(walls[1]["radius"]) if holder else 0.0})
+    def progress(self):
+        if self.t_contact is None:
+            return 0.0, "falling"
+        return (min((self.sim.time - self.t_contact) / self.values["max_time"], 1.0),
+                f"{self.sim.n_particles - 1} particles, {len(self.replace.events)} breakage events")
+
+    def finish(self):
+        sim, values, mat, replace, tracker = self.sim, self.values, self.mat, self.replace, self.tracker
+        bed_mass0, n_bed, settle_ke, t_contact = self.bed_mass0, self.n_bed, self.settle_ke, self.t_contact
+        v0, e_ball0 = self.v0, self.e_ball0
+        touched_radial = [self.touched_radial]
+        q = sim.particles
+        bed = np.arange(1, sim.n_particles)
+        sizes = 2.0 * q.radius[bed]
+        masses = sim.masses()[bed]
+        dummy = sim.tags["dummy"][bed]
+        dummy_t10 = sim.tags["event_t10"][bed]
+        events = tracker.event_rows
+        fines = replace.fines_mass
+        total = float(masses.sum() + fines)
+        t10_recorded = sim.breakage.t10_recorded[bed]
+        passing = product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat)
+        passing_total = product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat,
+                                        np.array([BROKEN_SIEVE]))[0]
+        broken_mass = float(passing_total)
+        gen0 = [row for row in events if row[5] == 0]
+        capture = max((row[4] for row in gen0), default=0.0)
+        broken_originals = len({int(row[6]) for row in events})
+        absorbed = float(sum(row[8] * row[13] for row in events))
+        ev = np.array(events, dtype=float).reshape(-1, len(EVENT_FIELDS))
+
+        coords = {
+            "sieve": ("sieve", SIEVES, {"units": "m", "long_name": "sieve aperture"}),
+            "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event index"}),
+        }
+        data = {}
+        for col, (key, unit, long) in enumerate(EVENT_FIELDS):
+            data[key] = ("event", ev[:, col], {"units": unit, "long_name": long})
+        scalars = {
+            "bed_mass": (bed_mass0, "kg", "initial bed mass (particles x sphere mass)"),
+            "n_bed_particles": (n_bed, "1", "particles in the bed"),
+            "broken_mass": (broken_mass, "kg", "mass passing 4.75 mm after impact (broken mass)"),
+            "broken_fraction": (broken_mass / bed_mass0, "1", "broken mass / bed mass"),
+            "capture_radius": (capture, "m",
+                               "largest distance from the ball's axis of an original bed particle that broke"),
+            "touched_radius": (touched_radial[0], "m",
+                               "largest distance from the ball's axis of a particle the ball touched (recorded cadence)"),
+            "broken_particles": (broken_originals, "1", "original bed particles that broke"),
+            "breakage_events": (len(events), "1", "breakage events (all generations)"),
+            "unbreakable_records": (len(replace.records), "1",
+                                    "resolved-unbreakable particles that reached their fracture energy (eq 13 applied)"),
+            "unbreakable_recorded_mass": (float(masses[np.isfinite(t10_recorded)].sum()), "kg",
+                                          "their mass, spread by eq 13 in the product distribution"),
+            "fines_mass": (fines, "kg", "unresolved fines (dummy_as = fines)"),
+            "dummy_mass": (float(masses[dummy].sum()), "kg", "mass of the dummy spheres (fines below x_min of their parent)"),
+            "mass_balance_error": (total - bed_mass0, "kg", "resolved + fines - initial bed mass"),
+            "impact_speed": (v0, "m s-1", "ball speed at first contact"),
+            "ball_energy_initial": (e_ball0, "J", "ball kinetic + potential energy at the start"),
+            "ball_energy_final": (self.recorded("ball_energy")[-1], "J", "ball kinetic + potential energy at the end"),
+            "breakage_energy": (absorbed, "J", "absorbed energy of the breaking events (sum of Ek')"),
+            "settle_kinetic_energy": (settle_ke, "J", "bed kinetic energy left after settling"),
+            "contact_time": (sim.time - t_contact, "s", "time from first contact to the end of the run"),
+            "first_contact_time": (t_contact, "s", "time of the first ball-bed contact (holder removed)"),
+        }
+        for key, (val, unit, long) in scalars.items():
+            data[key] = ((), float(val), {"units": unit, "long_name": long})
+        data["passing"] = ("sieve", passing, {"units": "kg", "long_name": "bed mass passing the sieve"})
+        data["passing_fraction"] = ("sieve", passing / bed_mass0,
+                                    {"units": "1", "long_name": "cumulative fraction passing (incl. fines)"})
+        extra = {"settle_dt": self.settle.dt, "settle_steps": self.settle_steps,
+                 "impact_steps": sim.step, "d_min": self.d_min,
+                 "ball_density": ball_density(values["ball_mass"], values["ball_diameter"]),
+                 "holder_radius": float(self.walls[1]["radius"]) if self.holder else 0.0}
+        return data, coords, extra
 
 
 register(Scene("bed_impact", "steel ball dropped on a particle bed, Tavares breakage (seed 002)",
-               PARAMS, run, (_check,)))
+               PARAMS, BedImpactCase, (_check,)))

@@ -9,16 +9,17 @@ values side by side, and the per-step overlap, normal force and relative normal 
 """
 
 import math
-import time
+from dataclasses import replace
 
 import numpy as np
-import xarray as xr
 
-from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from ..engine.contact import TWO_SQRT_5_6
-from ..engine.materials import damping_ratio, effective_moduli
+from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.state import disk_or_sphere_mass
-from .base import SOLID_PARAMS, Param, RunInfo, Scene, register
+from ..models import Interaction, Material, MaterialTable
+from ..models.contact import TWO_SQRT_5_6
+from ..models.materials import damping_ratio, effective_moduli
+from .base import SOLID_PARAMS, TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .driver import Case, Series
 
 HERTZ_TIME_FACTOR = 2.9433  # t_c = 2 (xi_max / v) int_0^1 dx / sqrt(1 - x^(5/2))
 
@@ -37,8 +38,9 @@ PARAMS = (
     Param("thickness", 0.01, "disk thickness for 2D masses", "m", 0.0, lo_open=True),
     Param("speed", 1.0, "relative impact speed", "m s-1", 0.0, lo_open=True),
     Param("angle", 0.0, "impact obliquity from the normal", "degree", 0.0, 90.0, hi_open=True),
-    Param("steps_per_contact", 2000, "time steps per estimated contact duration (if dt = 0)", "1", 10),
-    Param("dt", 0.0, "time step; 0 = estimated contact time / steps_per_contact", "s", 0.0),
+    # 2000 steps per contact time where a contact bound (recommended: 50 steps) sets the step
+    replace(TIME_STEP_PARAMS[0], default=0.025),
+    TIME_STEP_PARAMS[1],
     Param("seed", 0, "random seed (unused: the collision is deterministic)", "1", 0),
 )
 
@@ -109,102 +111,100 @@ def _check(values):
         raise ValueError("dim: hertz_mindlin is a 3D law; use dim = 3 or a linear law")
 
 
-def run(values, ctx):
-    law = values["contact_law"]
-    dim = values["dim"]
-    mat = Material("particle", values["density"], values["youngs_modulus"], values["poisson_ratio"])
-    inter = Interaction(restitution=values["restitution"], friction=values["friction"],
-                        normal_stiffness=values["normal_stiffness"],
-                        normal_damping_rate=values["normal_damping_rate"],
-                        tangential_damping_rate=values["tangential_damping_rate"])
-    table = MaterialTable([mat], {"*": inter}, law)
-    spec = PhysicsSpec(dim=dim, contact_law=law, integrator=values["integrator"],
-                       clip_normal=values["end_of_contact"] == "force", gravity=False,
-                       walls=values["target"] == "wall")
-    r = values["radius"]
-    gap = 1e-3 * r
-    phi = math.radians(values["angle"])
-    u = values["speed"]
-    vel = np.array([-u * math.cos(phi), u * math.sin(phi), 0.0])
-    if values["target"] == "wall":
-        x = [[r + gap, 0.0, 0.0]]
-        v = [vel]
-        walls = [dict(kind="plane", point=(0, 0, 0), normal=(1, 0, 0), material="particle")]
-    else:
-        x = [[r + gap / 2, 0.0, 0.0], [-r - gap / 2, 0.0, 0.0]]
-        v = [vel / 2, -vel / 2]
-        walls = []
-    sim = Simulation(spec, table, x=x, radius=[r] * len(x), material="particle", v=v, walls=walls,
-                     thickness=values["thickness"], impact_speed=u, max_overlap=0.9)
-    e_ref, t_ref = analytic(values)
-    if values["dt"] > 0:
-        sim.set_time_step(values["dt"])
-    else:
-        t_est = t_ref if math.isfinite(t_ref) else sim.dt_report.recommended * 50
-        sim.set_time_step(min(t_est / values["steps_per_contact"], sim.dt_report.limit))
-    dt = sim.dt
-    m0 = 1.0 / sim.particles.inv_mass[0]
+class CollisionCase(Case):
+    """One impact, stepped one step at a time (the overlap, force and normal velocity of every
+    step are recorded) until the bodies have parted."""
 
-    rec = {"time": [], "overlap": [], "normal_force": [], "normal_velocity": []}
+    series = (Series("overlap", "m", "normal overlap"),
+              Series("normal_force", "N", "normal contact force on particle 0"),
+              Series("normal_velocity", "m s-1", "relative normal velocity (separating > 0)"))
 
-    def observe(s):
-        p = s.particles
-        if values["target"] == "wall":
-            overlap = r - p.x[0, 0]
-            vn = p.v[0, 0]
+    def __init__(self, values):
+        super().__init__()
+        self.values = v = values
+        law = v["contact_law"]
+        mat = Material("particle", v["density"], v["youngs_modulus"], v["poisson_ratio"])
+        inter = Interaction(restitution=v["restitution"], friction=v["friction"],
+                            normal_stiffness=v["normal_stiffness"],
+                            normal_damping_rate=v["normal_damping_rate"],
+                            tangential_damping_rate=v["tangential_damping_rate"])
+        table = MaterialTable([mat], {"*": inter}, law)
+        spec = PhysicsSpec(dim=v["dim"], integrator=v["integrator"],
+                           clip_normal=v["end_of_contact"] == "force", gravity=False,
+                           walls=v["target"] == "wall")
+        r = self.r = v["radius"]
+        gap = 1e-3 * r
+        phi = math.radians(v["angle"])
+        u = v["speed"]
+        vel = np.array([-u * math.cos(phi), u * math.sin(phi), 0.0])
+        if v["target"] == "wall":
+            x, vs = [[r + gap, 0.0, 0.0]], [vel]
+            walls = [dict(kind="plane", point=(0, 0, 0), normal=(1, 0, 0), material="particle")]
         else:
-            overlap = 2 * r - (p.x[0, 0] - p.x[1, 0])
-            vn = p.v[0, 0] - p.v[1, 0]
-        rec["time"].append(s.time)
-        rec["overlap"].append(overlap)
-        rec["normal_force"].append(m0 * p.acc[0, 0])
-        rec["normal_velocity"].append(vn)
+            x, vs = [[r + gap / 2, 0.0, 0.0], [-r - gap / 2, 0.0, 0.0]], [vel / 2, -vel / 2]
+            walls = []
+        self.sim = sim = Simulation(spec, table, x=x, radius=[r] * len(x), material="particle",
+                                    v=vs, walls=walls, thickness=v["thickness"],
+                                    step=step_policy(v, impact_speed=u),
+                                    guards=Guards(max_overlap=0.9))
+        self.e_ref, self.t_ref = analytic(v)
+        self.m0 = 1.0 / sim.particles.inv_mass[0]
+        self.max_steps = int(20 * (self.t_ref if math.isfinite(self.t_ref) else 1e3 * sim.dt)
+                             / sim.dt) + 100
+        self.touched = self.parted = False
+        self._observe()
 
-    t0 = time.perf_counter()
-    max_steps = int(20 * (t_ref if math.isfinite(t_ref) else 1e3 * dt) / dt) + 100
-    observe(sim)
-    touched = False
-    for _ in range(max_steps):
-        sim.run(1, chunk=1, observer=observe)
-        in_contact = rec["overlap"][-1] > 0 if values["end_of_contact"] == "overlap" else (
-            rec["normal_force"][-1] != 0.0 or rec["overlap"][-1] > 0)
-        touched |= in_contact
-        if touched and not in_contact and rec["overlap"][-1] < 0:
-            break
-    wall = time.perf_counter() - t0
+    def _observe(self):
+        p = self.sim.particles
+        if self.values["target"] == "wall":
+            overlap, vn = self.r - p.x[0, 0], p.v[0, 0]
+        else:
+            overlap, vn = 2 * self.r - (p.x[0, 0] - p.x[1, 0]), p.v[0, 0] - p.v[1, 0]
+        force = self.m0 * p.acc[0, 0]
+        self.record(self.sim.time, overlap=overlap, normal_force=force, normal_velocity=vn)
+        in_contact = overlap > 0 if self.values["end_of_contact"] == "overlap" else (
+            force != 0.0 or overlap > 0)
+        self.touched |= in_contact
+        self.parted = self.touched and not in_contact and overlap < 0
 
-    t = np.asarray(rec["time"])
-    overlap = np.asarray(rec["overlap"])
-    force = np.asarray(rec["normal_force"])
-    vn = np.asarray(rec["normal_velocity"])
-    v_in = -vn[0]
-    # Contact starts when the overlap crosses zero (interpolated); it ends at zero overlap or at the
-    # first step with zero normal force, depending on the convention.
-    k0 = int(np.argmax(overlap > 0))
-    t_start = t[k0 - 1] + (t[k0] - t[k0 - 1]) * (-overlap[k0 - 1]) / (overlap[k0] - overlap[k0 - 1])
-    if values["end_of_contact"] == "overlap":
-        k1 = k0 + int(np.argmax(overlap[k0:] <= 0))
-        t_end = t[k1 - 1] + (t[k1] - t[k1 - 1]) * overlap[k1 - 1] / (overlap[k1 - 1] - overlap[k1])
-    else:
-        k1 = k0 + int(np.argmax(force[k0:] <= 0))
-        t_end = t[k1 - 1] + (t[k1] - t[k1 - 1]) * force[k1 - 1] / (force[k1 - 1] - force[k1])
-    e_meas = vn[-1] / v_in / math.cos(math.radians(values["angle"])) if values["angle"] else vn[-1] / v_in
+    def chunk(self):
+        return 1
 
-    ds = xr.Dataset(
-        {
-            "overlap": ("time", overlap, {"units": "m", "long_name": "normal overlap"}),
-            "normal_force": ("time", force, {"units": "N", "long_name": "normal contact force on particle 0"}),
-            "normal_velocity": ("time", vn, {"units": "m s-1", "long_name": "relative normal velocity (separating > 0)"}),
+    def after_chunk(self):
+        self._observe()
+
+    def done(self):
+        return self.parted or self.sim.step >= self.max_steps
+
+    def progress(self):
+        return min(self.sim.step / self.max_steps, 1.0), ""
+
+    def finish(self):
+        t = self.recorded_times()
+        overlap, force = self.recorded("overlap"), self.recorded("normal_force")
+        vn = self.recorded("normal_velocity")
+        v_in = -vn[0]
+        # Contact starts when the overlap crosses zero (interpolated); it ends at zero overlap or
+        # at the first step with zero normal force, depending on the convention.
+        k0 = int(np.argmax(overlap > 0))
+        t_start = t[k0 - 1] + (t[k0] - t[k0 - 1]) * (-overlap[k0 - 1]) / (overlap[k0] - overlap[k0 - 1])
+        if self.values["end_of_contact"] == "overlap":
+            k1 = k0 + int(np.argmax(overlap[k0:] <= 0))
+            t_end = t[k1 - 1] + (t[k1] - t[k1 - 1]) * overlap[k1 - 1] / (overlap[k1 - 1] - overlap[k1])
+        else:
+            k1 = k0 + int(np.argmax(force[k0:] <= 0))
+            t_end = t[k1 - 1] + (t[k1] - t[k1 - 1]) * force[k1 - 1] / (force[k1 - 1] - force[k1])
+        angle = self.values["angle"]
+        e_meas = vn[-1] / v_in / math.cos(math.radians(angle)) if angle else vn[-1] / v_in
+        data = {
             "restitution": ((), e_meas, {"units": "1", "long_name": "measured coefficient of restitution"}),
             "contact_time": ((), t_end - t_start, {"units": "s", "long_name": "measured contact duration"}),
-            "restitution_analytic": ((), e_ref, {"units": "1", "long_name": "analytic coefficient of restitution"}),
-            "contact_time_analytic": ((), t_ref, {"units": "s", "long_name": "analytic contact duration (NaN: none)"}),
+            "restitution_analytic": ((), self.e_ref, {"units": "1", "long_name": "analytic coefficient of restitution"}),
+            "contact_time_analytic": ((), self.t_ref, {"units": "s", "long_name": "analytic contact duration (NaN: none)"}),
             "max_overlap": ((), float(overlap.max()), {"units": "m", "long_name": "largest overlap"}),
-        },
-        coords={"time": ("time", t, {"units": "s", "long_name": "simulated time"})},
-    )
-    return ds, RunInfo(seed=values["seed"], dt=dt, steps=sim.step, wall_time_s=wall,
-                       extra={"dt_limit": sim.dt_report.limit})
+        }
+        return data, {}, {}
 
 
-register(Scene("collision", "one binary impact (pair or wall) for analytic checks", PARAMS, run, (_check,)))
+register(Scene("collision", "one binary impact (pair or wall) for analytic checks", PARAMS,
+               CollisionCase, (_check,)))

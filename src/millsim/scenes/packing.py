@@ -8,13 +8,13 @@ can replace the settling stage, so both codes start from the same bed.
 """
 
 import math
-import time
 
 import numpy as np
-import xarray as xr
 
-from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from .base import SOLID_PARAMS, Param, RunInfo, Scene, register
+from ..engine import PhysicsSpec, Simulation, StepPolicy
+from ..models import Interaction, Material, MaterialTable
+from .base import SOLID_PARAMS, Param, Scene, register
+from .driver import Case, Series
 
 PARAMS = (
     Param("n", 10000, "number of spheres", "1", 1),
@@ -99,7 +99,7 @@ def build(values):
                                                    friction=values["friction"],
                                                    rolling_friction=values["rolling_friction"])},
                           "hertz_mindlin")
-    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", integrator=values["integrator"],
+    spec = PhysicsSpec(dim=3, integrator=values["integrator"],
                        rolling_friction=values["rolling_friction"] > 0, walls=True)
     v = w = None
     if values["init_file"]:
@@ -108,54 +108,87 @@ def build(values):
         x = _lattice(values, rng)
     radius = np.full(len(x), values["radius"])
     return Simulation(spec, table, x=x, radius=radius, material="grain", v=v, w=w, walls=_walls(values),
-                      skin=values["skin"], dt=values["settle_dt"], impact_speed=1.0)
+                      skin=values["skin"], step=StepPolicy(dt=values["settle_dt"]))
 
 
-def run(values, ctx):
-    t_wall = time.perf_counter()
-    sim = build(values)
-    drum = values["container"] == "drum"
-    if not values["init_file"] and values["settle_steps"]:
-        sim.run(values["settle_steps"], chunk=5000, progress=ctx.progress)
-    if drum:
-        sim.walls[0, 8] = values["drum_omega"]
-        if values["spinup_steps"]:
-            sim.run(values["spinup_steps"], chunk=5000, progress=ctx.progress)
-    sim.set_time_step(values["dt"])
+class PackingCase(Case):
+    """Settle (box or drum), spin the drum up, then the timed stage at ``dt``: kinetic energy,
+    contacts per particle and bed height every ``record_every`` steps; the drum's torque and
+    power over the timed stage."""
 
-    rows = []
-    t_start, work_start = sim.time, float(sim.wall_work[0])
-    impulse_start = sim.wall_impulse[0].copy()
+    series = (Series("kinetic_energy", "J", "kinetic energy of the spheres"),
+              Series("contacts_per_particle", "1", "particle-particle contacts per particle"),
+              Series("bed_top", "m", "highest sphere centre"))
 
-    def observe(s):
-        i, _, _ = s.contact_pairs()
-        rows.append((s.time, s.kinetic_energy(), 2.0 * len(i) / s.n_particles,
-                     float(s.particles.x[s.free, 2].max())))
-        ctx.snapshot(s)
+    def __init__(self, values):
+        super().__init__()
+        self.v = values
+        self.sim = build(values)
+        self.drum = values["container"] == "drum"
+        # stages: (name, steps, record cadence)
+        self.plan = [("timed", values["steps"], values["record_every"])]
+        if self.drum and values["spinup_steps"]:
+            self.plan.insert(0, ("spinup", values["spinup_steps"], 5000))
+        if not values["init_file"] and values["settle_steps"]:
+            self.plan.insert(0, ("settle", values["settle_steps"], 5000))
+        self.total = sum(steps for _, steps, _ in self.plan)
+        self.stage = -1
+        self._next_stage()
 
-    timed_wall = sim.wall_seconds
-    sim.run(values["steps"], chunk=values["record_every"], observer=observe, progress=ctx.progress)
-    timed_wall = sim.wall_seconds - timed_wall
-    t, ke, z, top = (np.array(c) for c in zip(*rows))
-    elapsed = sim.time - t_start
-    data = {
-        "kinetic_energy": ("time", ke, {"units": "J", "long_name": "kinetic energy of the spheres"}),
-        "contacts_per_particle": ("time", z, {"units": "1", "long_name": "particle-particle contacts per particle"}),
-        "bed_top": ("time", top, {"units": "m", "long_name": "highest sphere centre"}),
-        "particle_steps_per_second": ((), sim.n_particles * values["steps"] / timed_wall,
-                                      {"units": "s-1", "long_name": "throughput of the timed stage"}),
-        "timed_wall_time": ((), timed_wall, {"units": "s", "long_name": "wall time of the timed stage (compiled loop only)"}),
-    }
-    if drum:
-        torque = (sim.wall_impulse[0] - impulse_start)[4] / elapsed
-        data["shell_torque"] = ((), torque, {"units": "N m", "long_name": "mean torque of the charge on the shell about its axis (the drive supplies the opposite)"})
-        data["shell_power"] = ((), (sim.wall_work[0] - work_start) / elapsed,
-                              {"units": "W", "long_name": "mean power the shell puts into the charge"})
-    ds = xr.Dataset(data, coords={"time": ("time", t, {"units": "s", "long_name": "simulated time"})})
-    return ds, RunInfo(seed=values["seed"], dt=values["dt"], steps=sim.step,
-                       wall_time_s=time.perf_counter() - t_wall,
-                       extra={"list_rebuilds": int(sim.counters[0]), "n_particles": sim.n_particles})
+    def _next_stage(self):
+        self.stage += 1
+        if self.stage == len(self.plan):
+            return
+        name, self.left, _ = self.plan[self.stage]
+        sim = self.sim
+        if self.drum and name != "settle":
+            sim.set_wall(0, omega=self.v["drum_omega"])
+        if name == "timed":
+            sim.set_time_step(self.v["dt"])
+            self.t_start, self.work_start = sim.time, sim.work(wall=0)
+            self.angular_start = sim.angular_impulse(wall=0)
+            self.timed_wall = sim.wall_seconds
+
+    def chunk(self):
+        return min(self.plan[self.stage][2], self.left)
+
+    def after_chunk(self):
+        sim = self.sim
+        self.left -= self.chunk()
+        if self.plan[self.stage][0] == "timed":
+            i, _, _ = sim.contact_pairs()
+            self.record(sim.time, kinetic_energy=sim.kinetic_energy(),
+                        contacts_per_particle=2.0 * len(i) / sim.n_particles,
+                        bed_top=float(sim.particles.x[sim.free, 2].max()))
+        if self.left == 0:
+            self._next_stage()
+
+    def done(self):
+        return self.stage == len(self.plan)
+
+    def progress(self):
+        if self.done():
+            return 1.0, ""
+        done = sum(steps for _, steps, _ in self.plan[:self.stage]) + (
+            self.plan[self.stage][1] - self.left)
+        return done / self.total, self.plan[self.stage][0]
+
+    def finish(self):
+        sim, v = self.sim, self.v
+        timed_wall = sim.wall_seconds - self.timed_wall
+        elapsed = sim.time - self.t_start
+        data = {
+            "particle_steps_per_second": ((), sim.n_particles * v["steps"] / timed_wall,
+                                          {"units": "s-1", "long_name": "throughput of the timed stage"}),
+            "timed_wall_time": ((), timed_wall, {"units": "s", "long_name": "wall time of the timed stage (compiled loop only)"}),
+        }
+        if self.drum:
+            torque = (sim.angular_impulse(wall=0) - self.angular_start)[1] / elapsed
+            data["shell_torque"] = ((), torque, {"units": "N m", "long_name": "mean torque of the charge on the shell about its axis (the drive supplies the opposite)"})
+            data["shell_power"] = ((), (sim.work(wall=0) - self.work_start) / elapsed,
+                                  {"units": "W", "long_name": "mean power the shell puts into the charge"})
+        return data, {}, {"list_rebuilds": int(sim.counters[0]), "n_particles": sim.n_particles}
 
 
 register(Scene("packing", "spheres settled in a box or tumbling in a rotating drum (benchmark case)",
-               PARAMS, run))
+               PARAMS, PackingCase))

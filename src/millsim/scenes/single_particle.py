@@ -50,21 +50,22 @@ fines included, with the model's.
 
 import dataclasses
 import math
-import time
 import zlib
 
 import numpy as np
-import xarray as xr
 
-from ..analysis import tavares_verification as tv
-from ..breakage import tavares
-from ..breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
-from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from ..engine.materials import effective_moduli
-from ..engine.timestep import hertz_contact_time
-from .base import Param, RunInfo, Scene, register
+from ..engine import Guards, PhysicsSpec, Simulation
+from ..models import Interaction, Material, MaterialTable, TavaresModel
+from ..models.breakage import tavares
+from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
+from ..models.contact import hertz_contact_time
+from ..models.materials import effective_moduli
+from ..models.breakage import tavares_predictions as tv
+from ..util.stats import binomial_interval, bootstrap_interval
+from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .driver import Case
 
-SPEC = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, gravity=False, fracture="tavares")
+SPEC = PhysicsSpec(dim=3, walls=True, gravity=False)
 MODES = ("single", "drop_weight", "repeated")
 MATERIALS = ("copper_ore", "limestone", "granulite")
 SIEVES = tavares.SIEVE_RATIO ** -np.arange(0.0, 41.0)  # x/d0 from 1 to 2^-10
@@ -96,8 +97,9 @@ PARAMS = (
     Param("friction_pp", 0.49, "particle-particle sliding friction (Table 6)", "1", 0.0),
     Param("striker_ratio", 4.0, "drop-weight striker diameter / particle diameter", "1", 1.0),
     Param("spacing", 3.0, "grid pitch / diameter of the largest body", "1", 1.5),
-    Param("dt_factor", 1.0, "time step as a fraction of the engine's recommended step", "1",
-          0.0, 1.0, lo_open=True),
+    # the accuracy study's choice: absorbed energy within 0.9 % (docs/results/accuracy.md)
+    dataclasses.replace(TIME_STEP_PARAMS[0], default=0.5),
+    TIME_STEP_PARAMS[1],
     Param("contact_times", 25.0, "cap on the simulated time of one impact, in Hertz contact times",
           "1", 2.0),
     Param("max_overlap", 0.95, "guard: overlap / smaller radius that stops the run (small "
@@ -123,11 +125,19 @@ class Setup:
     speed: float
     mass: float
     sim: Simulation
-    ids: np.ndarray  # original particle of every simulated particle (striker of k: -2 - k)
-    gen: np.ndarray  # generation (0: original)
     home: np.ndarray  # (N, 3) start position of each original
     t_contact: float
     case_seed: int
+
+    @property
+    def ids(self):
+        """Original particle of every simulated particle (striker of k: -2 - k); a tag."""
+        return self.sim.tags["original"]
+
+    @property
+    def gen(self):
+        """Generation of every simulated particle (0: original, -1: retired stand-in); a tag."""
+        return self.sim.tags["generation"]
 
 
 def _materials(values):
@@ -188,16 +198,16 @@ def build(values):
     seed = case_seed(values)
     sim = Simulation(SPEC, table, x=x, radius=radius, material=material, v=v, gravity=(0, 0, 0),
                      walls=[{"kind": "plane", "point": (0, 0, 0), "normal": (0, 0, 1), "material": "steel"}],
-                     breakage={mat.name: (mat.gamma, mat.e_min)}, impact_speed=max(speed, 0.1),
-                     seed=seed, max_overlap=values["max_overlap"],
+                     breakage=TavaresModel({mat.name: (mat.gamma, mat.e_min)}),
+                     step=step_policy(values, impact_speed=max(speed, 0.1)),
                      # guard against numerical blow-up only: small unbreakable fragments squeezed
                      # out between large ones (or a striker) legitimately fly off fast
-                     v_max=max(100.0, 20.0 * math.sqrt(2.0 * E)))
-    sim.set_time_step(values["dt_factor"] * sim.dt_report.recommended)
+                     guards=Guards(max_overlap=values["max_overlap"],
+                                   v_max=max(100.0, 20.0 * math.sqrt(2.0 * E))),
+                     tags={"original": ids, "generation": np.zeros(len(ids), np.int64)})
     e_star, _ = effective_moduli(ore, st)
     t_c = hertz_contact_time(m_eff, r_eff, e_star, max(speed, 1e-3))
-    return Setup(values, mat, steel, share, E, speed, m, sim, ids, np.zeros(len(ids), np.int64),
-                 x[:n].copy(), t_c, seed)
+    return Setup(values, mat, steel, share, E, speed, m, sim, x[:n].copy(), t_c, seed)
 
 
 class Books:
@@ -216,16 +226,16 @@ class Books:
 
     def on_fracture(self, sim):
         s = self.s
-        e_frac = sim.particles.e_frac.copy()
+        e_frac = sim.breakage.e_frac.copy()
         if self.replace is None:
             # counted only: the particle stays as an unbreakable stand-in for its fragments
             # (removing it could leave no free particle at all) and is retired from the books
-            rows = sim.pop_fractures()
+            rows = sim.pop_events()
             broke = np.array([r[0] for r in rows], np.int64)
             specific = np.array([r[1] for r in rows])
             t10 = tavares.t10_prime(s.mat, specific, e_frac[broke])
             parents, gens = s.ids[broke], s.gen[broke]
-            sim.particles.e_frac[broke] = np.inf
+            sim.breakage.e_frac[broke] = np.inf
             s.gen[broke] = -1
             for pid, g, e, E, t in zip(parents, gens, specific, e_frac[broke], t10):
                 self.events.append((sim.time, pid, g, s.values["diameter"], e, E, t, -1, 0, 0.0))
@@ -236,18 +246,12 @@ class Books:
             broke = self.replace.last_broken
             specific = np.array([ev.specific_energy for ev in new])
             t10 = np.array([ev.t10 for ev in new])
-            parents, gens = s.ids[broke], s.gen[broke]
-            counts = np.array([ev.progeny for ev in new], np.int64)
+            # (the progeny carry their parent's tags, generation + 1)
+            parents = self.replace.last_parent_tags["original"]
+            gens = self.replace.last_parent_tags["generation"]
             for ev, pid, g in zip(new, parents, gens):
                 self.events.append((ev.time, pid, g, ev.parent_diameter, ev.specific_energy,
                                     ev.fracture_energy, ev.t10, ev.family, ev.progeny, ev.fines_mass))
-            keep = np.ones(len(s.ids), bool)
-            keep[broke] = False
-            s.ids = np.concatenate([s.ids[keep], np.repeat(parents, counts)])
-            s.gen = np.concatenate([s.gen[keep], np.repeat(gens + 1, counts)])
-            limit = s.values["dt_factor"] * sim.dt_report.recommended
-            if sim.dt > limit:
-                sim.set_time_step(limit)
         for j, (pid, g) in enumerate(zip(parents, gens)):
             if g == 0 and pid >= 0 and self.broken_at[pid] == 0:
                 self.broken_at[pid] = self.impact
@@ -263,7 +267,7 @@ def _quiet(sim, v_tol):
     fracture energy of any fragment (fragments squeezed out sideways keep flying slowly towards
     the plate for milliseconds)."""
     p = sim.particles
-    if (p.e_acc > 0).any() or (p.v[:, 2] < -v_tol).any():
+    if (sim.breakage.e_acc > 0).any() or (p.v[:, 2] < -v_tol).any():
         return False
     i, j, _ = sim.contact_pairs()
     if len(i):
@@ -274,38 +278,18 @@ def _quiet(sim, v_tol):
     return True
 
 
-def _run_impact(s: Setup, books: Books):
-    """Advance until the impact is over (or the contact-time cap); returns (converged, steps)."""
-    sim = s.sim
-    t_end = sim.time + s.values["contact_times"] * s.t_contact
-    steps0 = sim.step
-    while sim.time < t_end:
-        chunk = max(10, int(0.25 * s.t_contact / sim.dt))
-        sim.run(chunk, chunk=chunk, on_fracture=books.on_fracture)
-        if _quiet(sim, 0.1 * s.speed):
-            return True, sim.step - steps0
-    return False, sim.step - steps0
-
-
 def _reset_survivors(s: Setup):
     """Put every unbroken original back above the plate with the impact velocity (the retired
     stand-ins of the broken ones leave)."""
     sim = s.sim
-    retired = s.gen < 0
-    sim.remove_particles(retired)
-    s.ids, s.gen = s.ids[~retired], s.gen[~retired]
+    sim.remove_particles(s.gen < 0)  # the tags follow
     p = sim.particles
     p.x[:] = s.home[s.ids]
     p.v[:] = [0.0, 0.0, -s.speed]
     p.w[:] = 0.0
     # free flight again: no force (the last impact may have ended with a contact still unloading,
     # and a leftover acceleration would be applied in the first step of the next impact)
-    p.acc[:] = 0.0
-    p.alpha[:] = 0.0
-    p.gear[:] = 0.0
-    p.e_acc[:] = 0.0
-    sim.wall_hist[:] = 0.0
-    sim.remove_particles(np.zeros(sim.n_particles, bool))  # rebuilds the neighbour list
+    sim.restart_free_flight()
 
 
 def absorbed_from_damage(e_before, e_after, gamma):
@@ -330,7 +314,7 @@ def _product(s: Setup, books: Books, sieves, unbreakable="eq13"):
     d = 2.0 * p.radius[mine]
     mass = s.mat.density * math.pi / 6.0 * d**3
     owner = s.ids[mine]
-    t10_recorded = p.t10_recorded[mine]
+    t10_recorded = sim.breakage.t10_recorded[mine]
     per = np.zeros((n, len(sieves)))
     for pid in np.unique(owner):
         own = owner == pid
@@ -348,141 +332,175 @@ def _product(s: Setup, books: Books, sieves, unbreakable="eq13"):
     return 100.0 * per / m0, balance
 
 
-def run(values, ctx):
-    t_wall = time.perf_counter()
-    s = build(values)
-    sim = s.sim
-    n = values["n_particles"]
-    mode = values["mode"]
-    replacing = values["replacement"] and mode != "repeated"
-    replace = TavaresReplacement({s.mat.name: s.mat}, d_min=tavares.global_min_size(values["diameter"]),
-                                 seed=s.case_seed, dummy_as="fines",
-                                 breakage_at=values["breakage_at"])
-    originals = np.flatnonzero(s.ids >= 0)
-    replace.assign_fracture_energies(sim, originals)
-    e_initial = sim.particles.e_frac[originals].copy()
-    books = Books(s, replace if replacing else None)
-    impacts = values["impacts"] if mode == "repeated" else 1
-    converged, per_impact = [], []
-    e_before = e_initial.copy()
-    absorbed_first = np.full(n, np.nan)
-    ctx.snapshot(sim)
-    for k in range(1, impacts + 1):
-        books.impact = k
-        ok, _ = _run_impact(s, books)
-        converged.append(ok)
-        per_impact.append(int((books.broken_at > 0).sum()))
+class SingleParticleCase(Case):
+    """Impacts one after another: each runs until it is over (nothing loads, approaches or falls
+    back) or the time cap; between impacts the survivors are put back in free flight."""
+
+    def __init__(self, values):
+        super().__init__()
+        self.values = values
+        self.s = s = build(values)
+        self.sim = sim = s.sim
+        n = values["n_particles"]
+        self.mode = values["mode"]
+        self.replacing = values["replacement"] and self.mode != "repeated"
+        self.replace = TavaresReplacement({s.mat.name: s.mat},
+                                          d_min=tavares.global_min_size(values["diameter"]),
+                                          seed=s.case_seed, dummy_as="fines",
+                                          breakage_at=values["breakage_at"])
+        originals = np.flatnonzero(s.ids >= 0)
+        self.replace.assign_fracture_energies(sim, originals)
+        self.e_initial = sim.breakage.e_frac[originals].copy()
+        self.books = Books(s, self.replace if self.replacing else None)
+        self.impacts = values["impacts"] if self.mode == "repeated" else 1
+        self.converged, self.per_impact = [], []
+        self.absorbed_first = np.full(n, np.nan)
+        self.impact_done = False
+        self._begin_impact(1)
+
+    def _begin_impact(self, k):
+        self.books.impact = k
+        self.t_end = self.sim.time + self.values["contact_times"] * self.s.t_contact
+
+    def on_events(self, sim):
+        self.books.on_fracture(sim)
+
+    def chunk(self):
+        return max(10, int(0.25 * self.s.t_contact / self.sim.dt))
+
+    def after_chunk(self):
+        s, sim = self.s, self.sim
+        quiet = _quiet(sim, 0.1 * s.speed)
+        if not quiet and sim.time < self.t_end:
+            return
+        k = self.books.impact
+        self.converged.append(quiet)
+        self.per_impact.append(int((self.books.broken_at > 0).sum()))
         alive = (s.gen == 0) & (s.ids >= 0)
         if k == 1:
             # absorbed energy of the first event of the survivors, from the damage it did
+            n = self.values["n_particles"]
             e_now = np.full(n, np.nan)
-            e_now[s.ids[alive]] = sim.particles.e_frac[alive]
+            e_now[s.ids[alive]] = sim.breakage.e_frac[alive]
             surv = np.isfinite(e_now)
-            absorbed_first[surv] = absorbed_from_damage(e_before[surv], e_now[surv], s.mat.gamma)
-        ctx.snapshot(sim)
-        if k < impacts:
-            if not alive.any():
-                per_impact += [per_impact[-1]] * (impacts - k)
-                converged += [True] * (impacts - k)
-                break
+            self.absorbed_first[surv] = absorbed_from_damage(self.e_initial[surv], e_now[surv],
+                                                             s.mat.gamma)
+        if k == self.impacts:
+            self.impact_done = True
+        elif not alive.any():
+            self.per_impact += [self.per_impact[-1]] * (self.impacts - k)
+            self.converged += [True] * (self.impacts - k)
+            self.impact_done = True
+        else:
             _reset_survivors(s)
-    broken = books.broken_at > 0
-    first = broken & (books.broken_at == 1)
-    absorbed_first[first] = books.absorbed[first]
-    e_final = np.full(n, np.nan)
-    p = sim.particles
-    alive = (s.gen == 0) & (s.ids >= 0)
-    e_final[s.ids[alive]] = p.e_frac[alive]
+            self._begin_impact(k + 1)
 
-    d0 = values["diameter"]
-    nb = int(broken.sum())
-    lo, hi = tv.binomial_interval(nb, n)
-    analytic = float(tv.breakage_probability(s.mat, d0, s.specific_energy, s.share))
-    data = {
-        "particle_broken": ("particle", broken.astype(np.int8), {"units": "1", "long_name": "broke (1) or not (0)"}),
-        "particle_broken_at_impact": ("particle", books.broken_at, {"units": "1", "long_name": "impact at which it broke (0: never)"}),
-        "particle_fracture_energy_initial": ("particle", e_initial, {"units": "J kg-1", "long_name": "fracture energy drawn at creation (absorbed basis)"}),
-        "particle_fracture_energy_final": ("particle", e_final, {"units": "J kg-1", "long_name": "damaged fracture energy at the end (NaN: broke)"}),
-        "particle_fracture_energy_at_break": ("particle", books.e_break, {"units": "J kg-1", "long_name": "(damaged) fracture energy the breaking event reached"}),
-        "particle_absorbed_energy": ("particle", absorbed_first, {"units": "J kg-1", "long_name": "absorbed specific energy of the first event (at breakage if it broke; from its damage, eq 6 inverted, if not)"}),
-        "particle_t10_primary": ("particle", books.t10_primary, {"units": "%", "long_name": "t10' of its primary breakage event (eq 8)"}),
-        "n_particles": ((), n, {"units": "1", "long_name": "particles stressed"}),
-        "n_broken": ((), nb, {"units": "1", "long_name": "particles broken"}),
-        "broken_fraction": ((), nb / n, {"units": "1", "long_name": "fraction broken"}),
-        "broken_fraction_ci_lo": ((), float(lo), {"units": "1", "long_name": "95% Clopper-Pearson lower bound"}),
-        "broken_fraction_ci_hi": ((), float(hi), {"units": "1", "long_name": "95% Clopper-Pearson upper bound"}),
-        "specific_energy": ((), s.specific_energy, {"units": "J kg-1", "long_name": "set input (stressing) specific energy Ek/m"}),
-        "energy_ratio": ((), s.specific_energy / tv.stressing_median(s.mat, d0, s.share), {"units": "1", "long_name": "Ek/m over the stressing-basis median E50"}),
-        "absorbed_share": ((), s.share, {"units": "1", "long_name": "absorbed share of the input energy, eq 4 vs steel"}),
-        "impact_speed": ((), s.speed, {"units": "m s-1", "long_name": "speed of the particle (single, repeated) or striker (drop_weight)"}),
-        "median_fracture_energy": ((), float(tavares.median_fracture_energy(s.mat, d0)), {"units": "J kg-1", "long_name": "E50 (absorbed basis, eq 3)"}),
-        "gamma_used": ((), s.mat.gamma, {"units": "1", "long_name": "damage coefficient used"}),
-        "converged": (("impact",), np.array(converged, np.int8), {"units": "1", "long_name": "impact ended before the time cap"}),
-    }
-    if mode == "repeated":
-        cum = np.array(per_impact, float)
-        ilo, ihi = tv.binomial_interval(cum, n)
-        data.update(
-            impact_broken_fraction=(("impact",), cum / n, {"units": "1", "long_name": "cumulative fraction broken after each impact"}),
-            impact_broken_fraction_ci_lo=(("impact",), ilo, {"units": "1", "long_name": "95% Clopper-Pearson lower"}),
-            impact_broken_fraction_ci_hi=(("impact",), ihi, {"units": "1", "long_name": "95% Clopper-Pearson upper"}),
-            impact_broken_fraction_analytic=(("impact",), tv.repeated_impact_broken(
-                s.mat, d0, s.specific_energy, s.share, impacts), {"units": "1", "long_name": "damage model, eqs 1-6"}),
-        )
-        analytic = float(data["impact_broken_fraction_analytic"][1][-1])
-    data["broken_fraction_analytic"] = ((), analytic, {"units": "1", "long_name": "analytic probability (eqs 1-3; after all impacts for repeated)"})
-    ev = np.array(books.events, dtype=float).reshape(-1, 10)
-    for col, (name, unit, long) in enumerate([
-            ("event_time", "s", "time of breakage"), ("event_particle", "1", "original particle"),
-            ("event_generation", "1", "0: original, 1: its progeny, ..."),
-            ("event_parent_diameter", "m", "diameter of the breaking particle"),
-            ("event_specific_energy", "J kg-1", "absorbed specific energy at breakage"),
-            ("event_fracture_energy", "J kg-1", "fracture energy exceeded"),
-            ("event_t10", "%", "t10' of the event (family grid value)"),
-            ("event_family", "1", "family drawn (-1: no replacement)"),
-            ("event_progeny", "1", "resolved progeny spheres"),
-            ("event_fines_mass", "kg", "unresolved fines (dummy class) mass")]):
-        data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
-    data["t10_primary_model"] = ((), tavares.t10_min(s.mat), {"units": "%", "long_name": "eq 9: t10' at breakage at the fracture energy"})
-    coords = {"particle": ("particle", np.arange(n), {"units": "1", "long_name": "particle index"}),
-              "impact": ("impact", np.arange(1, len(converged) + 1), {"units": "1", "long_name": "impact number"}),
-              "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
-    if replacing:
-        per, balance = _product(s, books, np.append(SIEVES, 0.1))
-        t10_each = np.where(broken, per[:, -1], np.nan)
-        per = per[:, :-1]
-        passing = per[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
-        kept, _ = _product(s, books, SIEVES, unbreakable="keep")
-        passing_kept = kept[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
-        recorded = np.isfinite(p.t10_recorded) & (s.ids >= 0)
-        t10_pool = float(np.nanmean(t10_each)) if nb else math.nan
-        blo, bhi = tv.bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
-        coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
-        data.update(
-            particle_product_t10=("particle", t10_each, {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
-            particle_progeny=("particle", np.bincount(s.ids[s.ids >= 0], minlength=n), {"units": "1", "long_name": "resolved spheres it ended as"}),
-            product_passing=("sieve", passing, {"units": "%", "long_name": "cumulative % passing of the broken particles' product (fines included, resolved-unbreakable spheres by eq 13)"}),
-            product_passing_spheres=("sieve", passing_kept, {"units": "%", "long_name": "the same with resolved-unbreakable spheres kept at their size (seed 002 Fig 13)"}),
-            unbreakable_records=((), int(recorded.sum()), {"units": "1", "long_name": "resolved-unbreakable spheres that reached their fracture energy (eq 13 applied)"}),
-            product_passing_model=("sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
-                                   {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
-            product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
-            product_t10_ci_lo=((), blo, {"units": "%", "long_name": "95% bootstrap lower"}),
-            product_t10_ci_hi=((), bhi, {"units": "%", "long_name": "95% bootstrap upper"}),
-            product_t10_model=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share), {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
-            product_t10_model_all=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"), {"units": "%", "long_name": "eq 7, E50b = median of all"}),
-            fines_mass=((), replace.fines_mass, {"units": "kg", "long_name": "unresolved fines mass"}),
-            mass_balance_error=((), balance, {"units": "1", "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
-        )
-    ds = xr.Dataset(data, coords=coords)
-    return ds, RunInfo(seed=values["seed"], dt=sim.dt, steps=sim.step,
-                       wall_time_s=time.perf_counter() - t_wall,
-                       extra={"case_seed": s.case_seed, "dt_limit": sim.dt_report.limit,
-                              "dt_binding": sim.dt_report.binding.interaction,
-                              "contact_time_s": s.t_contact, "gravity": "off",
-                              "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"})
+    def done(self):
+        return self.impact_done
+
+    def progress(self):
+        k = self.books.impact
+        within = 1.0 - max(self.t_end - self.sim.time, 0.0) / (
+            self.values["contact_times"] * self.s.t_contact)
+        return (k - 1 + within) / self.impacts, f"impact {k}, {int((self.books.broken_at > 0).sum())} broken"
+
+    def finish(self):
+        values, s, sim, books, replace = self.values, self.s, self.sim, self.books, self.replace
+        n, mode, replacing = values["n_particles"], self.mode, self.replacing
+        impacts, converged, per_impact = self.impacts, self.converged, self.per_impact
+        absorbed_first, e_initial = self.absorbed_first, self.e_initial
+        broken = books.broken_at > 0
+        first = broken & (books.broken_at == 1)
+        absorbed_first[first] = books.absorbed[first]
+        e_final = np.full(n, np.nan)
+        alive = (s.gen == 0) & (s.ids >= 0)
+        e_final[s.ids[alive]] = sim.breakage.e_frac[alive]
+
+        d0 = values["diameter"]
+        nb = int(broken.sum())
+        lo, hi = binomial_interval(nb, n)
+        analytic = float(tv.breakage_probability(s.mat, d0, s.specific_energy, s.share))
+        data = {
+            "particle_broken": ("particle", broken.astype(np.int8), {"units": "1", "long_name": "broke (1) or not (0)"}),
+            "particle_broken_at_impact": ("particle", books.broken_at, {"units": "1", "long_name": "impact at which it broke (0: never)"}),
+            "particle_fracture_energy_initial": ("particle", e_initial, {"units": "J kg-1", "long_name": "fracture energy drawn at creation (absorbed basis)"}),
+            "particle_fracture_energy_final": ("particle", e_final, {"units": "J kg-1", "long_name": "damaged fracture energy at the end (NaN: broke)"}),
+            "particle_fracture_energy_at_break": ("particle", books.e_break, {"units": "J kg-1", "long_name": "(damaged) fracture energy the breaking event reached"}),
+            "particle_absorbed_energy": ("particle", absorbed_first, {"units": "J kg-1", "long_name": "absorbed specific energy of the first event (at breakage if it broke; from its damage, eq 6 inverted, if not)"}),
+            "particle_t10_primary": ("particle", books.t10_primary, {"units": "%", "long_name": "t10' of its primary breakage event (eq 8)"}),
+            "n_particles": ((), n, {"units": "1", "long_name": "particles stressed"}),
+            "n_broken": ((), nb, {"units": "1", "long_name": "particles broken"}),
+            "broken_fraction": ((), nb / n, {"units": "1", "long_name": "fraction broken"}),
+            "broken_fraction_ci_lo": ((), float(lo), {"units": "1", "long_name": "95% Clopper-Pearson lower bound"}),
+            "broken_fraction_ci_hi": ((), float(hi), {"units": "1", "long_name": "95% Clopper-Pearson upper bound"}),
+            "specific_energy": ((), s.specific_energy, {"units": "J kg-1", "long_name": "set input (stressing) specific energy Ek/m"}),
+            "energy_ratio": ((), s.specific_energy / tv.stressing_median(s.mat, d0, s.share), {"units": "1", "long_name": "Ek/m over the stressing-basis median E50"}),
+            "absorbed_share": ((), s.share, {"units": "1", "long_name": "absorbed share of the input energy, eq 4 vs steel"}),
+            "impact_speed": ((), s.speed, {"units": "m s-1", "long_name": "speed of the particle (single, repeated) or striker (drop_weight)"}),
+            "median_fracture_energy": ((), float(tavares.median_fracture_energy(s.mat, d0)), {"units": "J kg-1", "long_name": "E50 (absorbed basis, eq 3)"}),
+            "gamma_used": ((), s.mat.gamma, {"units": "1", "long_name": "damage coefficient used"}),
+            "converged": (("impact",), np.array(converged, np.int8), {"units": "1", "long_name": "impact ended before the time cap"}),
+        }
+        if mode == "repeated":
+            cum = np.array(per_impact, float)
+            ilo, ihi = binomial_interval(cum, n)
+            data.update(
+                impact_broken_fraction=(("impact",), cum / n, {"units": "1", "long_name": "cumulative fraction broken after each impact"}),
+                impact_broken_fraction_ci_lo=(("impact",), ilo, {"units": "1", "long_name": "95% Clopper-Pearson lower"}),
+                impact_broken_fraction_ci_hi=(("impact",), ihi, {"units": "1", "long_name": "95% Clopper-Pearson upper"}),
+                impact_broken_fraction_analytic=(("impact",), tv.repeated_impact_broken(
+                    s.mat, d0, s.specific_energy, s.share, impacts), {"units": "1", "long_name": "damage model, eqs 1-6"}),
+            )
+            analytic = float(data["impact_broken_fraction_analytic"][1][-1])
+        data["broken_fraction_analytic"] = ((), analytic, {"units": "1", "long_name": "analytic probability (eqs 1-3; after all impacts for repeated)"})
+        ev = np.array(books.events, dtype=float).reshape(-1, 10)
+        for col, (name, unit, long) in enumerate([
+                ("event_time", "s", "time of breakage"), ("event_particle", "1", "original particle"),
+                ("event_generation", "1", "0: original, 1: its progeny, ..."),
+                ("event_parent_diameter", "m", "diameter of the breaking particle"),
+                ("event_specific_energy", "J kg-1", "absorbed specific energy at breakage"),
+                ("event_fracture_energy", "J kg-1", "fracture energy exceeded"),
+                ("event_t10", "%", "t10' of the event (family grid value)"),
+                ("event_family", "1", "family drawn (-1: no replacement)"),
+                ("event_progeny", "1", "resolved progeny spheres"),
+                ("event_fines_mass", "kg", "unresolved fines (dummy class) mass")]):
+            data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
+        data["t10_primary_model"] = ((), tavares.t10_min(s.mat), {"units": "%", "long_name": "eq 9: t10' at breakage at the fracture energy"})
+        coords = {"particle": ("particle", np.arange(n), {"units": "1", "long_name": "particle index"}),
+                  "impact": ("impact", np.arange(1, len(converged) + 1), {"units": "1", "long_name": "impact number"}),
+                  "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
+        if replacing:
+            per, balance = _product(s, books, np.append(SIEVES, 0.1))
+            t10_each = np.where(broken, per[:, -1], np.nan)
+            per = per[:, :-1]
+            passing = per[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
+            kept, _ = _product(s, books, SIEVES, unbreakable="keep")
+            passing_kept = kept[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
+            recorded = np.isfinite(sim.breakage.t10_recorded) & (s.ids >= 0)
+            t10_pool = float(np.nanmean(t10_each)) if nb else math.nan
+            blo, bhi = bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
+            coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
+            data.update(
+                particle_product_t10=("particle", t10_each, {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
+                particle_progeny=("particle", np.bincount(s.ids[s.ids >= 0], minlength=n), {"units": "1", "long_name": "resolved spheres it ended as"}),
+                product_passing=("sieve", passing, {"units": "%", "long_name": "cumulative % passing of the broken particles' product (fines included, resolved-unbreakable spheres by eq 13)"}),
+                product_passing_spheres=("sieve", passing_kept, {"units": "%", "long_name": "the same with resolved-unbreakable spheres kept at their size (seed 002 Fig 13)"}),
+                unbreakable_records=((), int(recorded.sum()), {"units": "1", "long_name": "resolved-unbreakable spheres that reached their fracture energy (eq 13 applied)"}),
+                product_passing_model=("sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
+                                       {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
+                product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
+                product_t10_ci_lo=((), blo, {"units": "%", "long_name": "95% bootstrap lower"}),
+                product_t10_ci_hi=((), bhi, {"units": "%", "long_name": "95% bootstrap upper"}),
+                product_t10_model=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share), {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
+                product_t10_model_all=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"), {"units": "%", "long_name": "eq 7, E50b = median of all"}),
+                fines_mass=((), replace.fines_mass, {"units": "kg", "long_name": "unresolved fines mass"}),
+                mass_balance_error=((), balance, {"units": "1", "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
+            )
+        extra = {"case_seed": s.case_seed, "contact_time_s": s.t_contact, "gravity": "off",
+                 "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"}
+        return data, coords, extra
 
 
 register(Scene("single_particle", "single-particle impact, drop-weight and repeated-impact tests of "
                "the Tavares model against its analytic predictions (seed 002 section 4.1)",
-               PARAMS, run, (_check,)))
+               PARAMS, SingleParticleCase, (_check,)))

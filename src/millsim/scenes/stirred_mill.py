@@ -17,18 +17,18 @@ contact-typology split, collision frequency in 9 regions and coarse-grained velo
 """
 
 import math
-import time
 
 import numpy as np
-import xarray as xr
-from scipy import stats
 from scipy.spatial import cKDTree
 
-from ..engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.kinematics import CYLINDER_INNER, CYLINDER_OUTER, PLANE
-from ..engine.lubrication import check_lubrication_params
-from ..engine.timestep import linear_contact_time
-from .base import Param, RunInfo, Scene, register
+from ..models import Interaction, Lubrication, Material, MaterialTable
+from ..models.contact import linear_contact_time
+from ..models.lubrication import check_lubrication_params
+from ..util.stats import block_mean_ci
+from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .driver import Case, Series
 
 G = 9.81
 AXIS = np.array([1.0, 0.0, 0.0])
@@ -88,11 +88,7 @@ PARAMS = (
     Param("records_per_revolution", 40, "torque/power records per revolution", "1", 4),
     Param("initial_swirl", 0.1, "initial bead velocity as a fraction of rigid rotation", "1", 0.0,
           1.0),
-    Param("steps_per_contact", 25, "dt = t_c(smallest bead pair) / this (and the lubrication "
-          "bound), if dt = 0", "1", 10),
-    Param("dt_factor", 1.0, "multiplies the automatic step (0.5: the synthetic-twin reference)",
-          "1", 0.0, 1.0, lo_open=True),
-    Param("dt", 0.0, "time step; 0 = automatic", "s", 0.0),
+    *TIME_STEP_PARAMS,
     Param("contact_samples_per_contact", 3, "contact samples per bead-bead contact time "
           "(collision detection)", "1", 1),
     Param("ci_blocks", 8, "blocks of the net-power confidence interval", "1", 2),
@@ -250,7 +246,7 @@ def build(values):
     table = MaterialTable([Material("bead", values["density"]), Material("agitator", 3800.0),
                            Material("wall", 7800.0)], {"*": inter}, "linear_history")
     wet = values["eta"] > 0
-    spec = physics_spec(wet, values["slice"])
+    spec = physics_spec(values["slice"])
     walls = [dict(kind="cylinder_inner", point=(0, 0, 0), axis=AXIS, radius=g["chamber_radius"],
                   material="wall"),
              dict(kind="cylinder_outer", point=(0, 0, 0), axis=AXIS, radius=g["shaft_radius"],
@@ -258,31 +254,27 @@ def build(values):
     if not values["slice"]:
         walls += [dict(kind="plane", point=(0, 0, 0), normal=(1, 0, 0), material="wall"),
                   dict(kind="plane", point=(g["length"], 0, 0), normal=(-1, 0, 0), material="wall")]
-    periodic = dict(box_lo=(g["x_lo"], 0, 0), box_len=(g["length"], 0, 0)) if values["slice"] else {}
+    periodic = dict(box=((g["x_lo"], 0, 0), (g["length"], 0, 0))) if values["slice"] else {}
     r_min = 0.5 * values["bead_diameter_min"]
     sim = Simulation(spec, table, x=x, radius=radius, material=material, v=vel, w=w, body=body,
                      walls=walls, bodies=[dict(kind="rotate", center=(0, 0, 0), axis=AXIS, rate=omega)],
-                     gravity=(0.0, 0.0, -G), skin=values["skin"], impact_speed=max(1.0, g["tip_speed"]),
-                     max_overlap=values["max_overlap"], v_max=max(50.0, 5 * g["tip_speed"]),
-                     seed=values["seed"], fluid=dict(eta=values["eta"], h_min=values["h_min"],
-                                                     h_max=values["h_max"]) if wet else None,
+                     gravity=(0.0, 0.0, -G), skin=values["skin"],
+                     step=step_policy(values, impact_speed=max(1.0, g["tip_speed"])),
+                     guards=Guards(max_overlap=values["max_overlap"],
+                                   v_max=max(50.0, 5 * g["tip_speed"])),
+                     fluid=Lubrication(values["eta"], values["h_min"], values["h_max"]) if wet else None,
                      **periodic)
     m_min = values["density"] * 4 / 3 * math.pi * r_min**3
     t_c, _ = linear_contact_time(k_n, 0.5 * m_min, 2 * _zeta(values) * math.sqrt(k_n / (0.5 * m_min)))
-    if values["dt"] > 0:
-        sim.set_time_step(values["dt"])
-    else:
-        lub = [b.recommended for b in sim.dt_report.bounds if "lubrication" in b.interaction.lower()]
-        dt = min([t_c / values["steps_per_contact"], sim.dt_report.limit, *lub])
-        sim.set_time_step(values["dt_factor"] * dt)
     g.update(k_n=k_n, t_c=t_c, n_agitator_particles=nd, agitator_particle_radius=disk_r)
     return sim, g
 
 
-def physics_spec(wet, periodic):
-    """The compiled variant: dry scenes (eta = 0) compile no lubrication code."""
-    return PhysicsSpec(dim=3, contact_law="linear_history", gravity=True, walls=True, bodies=True,
-                       periodic=periodic, lubrication=wet, energy_audit=True)
+def physics_spec(periodic):
+    """The compiled engine options (a dry case, eta = 0, hands the Simulation no fluid, so no
+    lubrication code is compiled)."""
+    return PhysicsSpec(dim=3, gravity=True, walls=True, bodies=True, periodic=periodic,
+                       energy_audit=True)
 
 
 def _zeta(values):
@@ -333,23 +325,11 @@ def mser5(series):
     return 5 * arg
 
 
-def block_mean_ci(series, blocks, confidence=0.95):
-    """Mean of a time series and the Student-t half-width from ``blocks`` block means."""
-    x = np.asarray(series, dtype=float)
-    blocks = max(2, min(blocks, len(x)))
-    means = np.array([c.mean() for c in np.array_split(x, blocks)])
-    sem = means.std(ddof=1) / math.sqrt(blocks)
-    return float(x.mean()), float(stats.t.ppf(0.5 + confidence / 2, blocks - 1) * sem)
+class Sampler:
+    """Collision counts by region and coarse-grained fields of one run (sampled between chunks)."""
 
-
-class Recorder:
-    """Time series, collision counts and coarse-grained fields of one run."""
-
-    def __init__(self, values, sim, g):
+    def __init__(self, values, g):
         self.v, self.g = values, g
-        self.shaft = 1  # wall index of the rotating shaft
-        self.series = {k: [] for k in ("time", "torque", "power", "kinetic_energy")}
-        self.last = self._drive(sim) + (sim.time,)
         self.contacts = np.zeros(0, dtype=np.int64)
         self.collisions = np.zeros(9)
         self.window_time = 0.0
@@ -360,20 +340,6 @@ class Recorder:
         mid = len(g["disk_x"]) // 2
         face = g["disk_x"][mid] + 0.5 * g["disk_thickness"]
         self.slab = (face, face + 0.5 * (g["pitch"] - g["disk_thickness"]))
-
-    def _drive(self, sim):
-        """Cumulative angular impulse about x and work of agitator body + shaft (what they supply)."""
-        impulse = -(sim.body_impulse[0, 3] + sim.wall_impulse[self.shaft, 3])
-        return impulse, sim.body_work[0] + sim.wall_work[self.shaft]
-
-    def record(self, sim):
-        impulse, work = self._drive(sim)
-        span = sim.time - self.last[2]
-        self.series["time"].append(sim.time)
-        self.series["torque"].append((impulse - self.last[0]) / span)
-        self.series["power"].append((work - self.last[1]) / span)
-        self.series["kinetic_energy"].append(sim.kinetic_energy())
-        self.last = (impulse, work, sim.time)
 
     def sample(self, sim, dt_sample):
         """Collision detection (bead-bead pairs in contact now and not at the last sample)."""
@@ -413,10 +379,19 @@ class Recorder:
         return 3 * ring + third
 
 
+SHAFT = 1  # wall index of the rotating shaft
+
+
+def drive_state(sim):
+    """Cumulative angular impulse about x and work of agitator body + shaft (what they supply)."""
+    impulse = -(sim.angular_impulse(body=0)[0] + sim.angular_impulse(wall=SHAFT)[0])
+    return impulse, sim.work(body=0) + sim.work(wall=SHAFT)
+
+
 def energy_state(sim, k_n, k_t):
     el_n, el_t = elastic_energy(sim, k_n, k_t)
-    shaft_work = sim.wall_work[1]
-    return dict(time=sim.time, work=float(sim.body_work[0] + shaft_work),
+    shaft_work = sim.work(wall=SHAFT)
+    return dict(time=sim.time, work=float(sim.work(body=0) + shaft_work),
                 kinetic=sim.kinetic_energy(), potential=sim.potential_energy(), elastic_normal=el_n,
                 elastic_tangential=el_t, **sim.energy_audit())
 
@@ -442,135 +417,165 @@ def typology(d):
                      d["contact_tangential_rotation"]])
 
 
-def run(values, ctx):
-    t_wall = time.perf_counter()
-    sim, g = build(values)
-    k_n = g["k_n"]
-    k_t = k_n * values["tangential_stiffness_ratio"]
-    period = 60.0 / values["rpm"]
-    sample_steps = max(1, int(g["t_c"] / values["contact_samples_per_contact"] / sim.dt))
-    per_record = max(1, int(round(period / values["records_per_revolution"] / sim.dt / sample_steps)))
-    record_steps = per_record * sample_steps
-    total = int(round(values["revolutions"] * period / sim.dt / record_steps)) * record_steps
-    transient = int(round(values["transient_revolutions"] * period / sim.dt / record_steps)) * record_steps
-    rec = Recorder(values, sim, g)
-    ctx.snapshot(sim)
-    start = energy_state(sim, k_n, k_t)
+class StirredMillCase(Case):
+    """Transient revolutions recorded every record interval; then the statistics window, sampled
+    every few contact times (collisions, coarse-grained fields) and recorded as before; power,
+    energy balance and typology over the window."""
 
-    def during_transient(s):
-        rec.record(s)
-        ctx.snapshot(s)
-
-    count = {"n": 0}
-
-    def during_window(s):
-        rec.sample(s, sample_steps * s.dt)
-        count["n"] += 1
-        if count["n"] % per_record == 0:
-            rec.record(s)
-
-    sim.run(transient, chunk=record_steps, observer=during_transient, progress=ctx.progress)
-    rec.sample(sim, 0.0)  # contacts at the window start (no collisions counted)
-    rec.collisions[:] = 0
-    rec.cg[:] = 0
-    rec.window_time = 0.0
-    window_start = energy_state(sim, k_n, k_t)
-    sim.run(total - transient, chunk=sample_steps, observer=during_window, progress=ctx.progress)
-    end = energy_state(sim, k_n, k_t)
-    ctx.snapshot(sim)
-
-    t = np.array(rec.series["time"])
-    power = np.array(rec.series["power"])
-    torque = np.array(rec.series["torque"])
-    k0 = mser5(power)
-    t_steady = float(t[k0] - (t[1] - t[0]) if k0 > 0 else 0.0)
-    use = t > max(t_steady, sim.time - (total - transient) * sim.dt) + 1e-12
-    p_mean, p_ci = block_mean_ci(power[use], values["ci_blocks"])
-    q_mean, q_ci = block_mean_ci(torque[use], values["ci_blocks"])
-    d, residual, rel = energy_balance(window_start, end)
-    _, _, rel_all = energy_balance(start, end)
-    span = end["time"] - window_start["time"]
-    typ = typology(d)
-    dissipated = typ.sum()
-    coll = rec.collisions
-    cg_n = rec.cg[0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cg = rec.cg[1:] / np.where(cg_n > 0, cg_n, np.nan)
-
-    def var(dims, value, units, long_name):
-        return (dims, value, {"units": units, "long_name": long_name})
-
-    centres = 0.5 * (rec.edges[1:] + rec.edges[:-1])
-    coords = {
-        "time": var("time", t, "s", "simulated time (end of the record interval)"),
-        "typology": var("typology", np.array(TYPOLOGY), "1", "contact typology"),
-        "audit_term": var("audit_term", np.array(AUDIT), "1", "dissipation term of the engine audit"),
-        "region": var("region", np.array(REGIONS), "1",
-                      "region: radial ring 1 (inner) - 3 (outer) x F(ront)/C(entre)/B(ack) along x"),
-        "gy": var("gy", centres, "m", "coarse-graining cell centre y"),
-        "gz": var("gz", centres, "m", "coarse-graining cell centre z"),
-    }
-    data = {
-        "agitator_torque": var("time", torque, "N m", "torque the agitator (disks + shaft) supplies, "
-                               "record-interval mean"),
-        "agitator_power": var("time", power, "W", "net power the agitator supplies, record-interval mean"),
-        "kinetic_energy": var("time", np.array(rec.series["kinetic_energy"]), "J",
-                              "kinetic energy of the beads"),
-        "net_power": var((), p_mean, "W", "steady-state mean net power"),
-        "net_power_ci": var((), p_ci, "W", "95% half-width of the net power (block means)"),
-        "mean_torque": var((), q_mean, "N m", "steady-state mean agitator torque"),
-        "mean_torque_ci": var((), q_ci, "N m", "95% half-width of the torque (block means)"),
-        "steady_state_start": var((), t_steady, "s", "start of the steady state (MSER-5 on the power)"),
-        "statistics_start": var((), float(t[use][0] - (t[1] - t[0])), "s",
-                                "start of the averaging window: max(transient, steady-state start)"),
-        "steady_state_detected": var((), int(t_steady <= window_start["time"] + 1e-12), "1",
-                                     "1 if the detected steady state starts before the transient ends"),
-        "energy_in": var((), d["work"], "J", "work of agitator + shaft over the window"),
-        "delta_kinetic": var((), d["kinetic"], "J", "change of bead kinetic energy over the window"),
-        "delta_potential": var((), d["potential"], "J", "change of potential energy over the window"),
-        "delta_elastic_normal": var((), d["elastic_normal"], "J", "change of normal spring energy"),
-        "delta_elastic_tangential": var((), d["elastic_tangential"], "J",
-                                        "change of tangential spring energy (inside the audit terms)"),
-        "dissipation": var("audit_term", np.array([d[k] for k in AUDIT]), "J",
-                           "energy dissipated over the window, by audit term"),
-        "dissipation_power": var("audit_term", np.array([d[k] for k in AUDIT]) / span, "W",
-                                 "mean dissipated power over the window, by audit term"),
-        "energy_balance_residual": var((), residual, "J", "energy in - (changes + dissipation), window"),
-        "energy_balance_error": var((), rel, "1", "residual / energy in, steady window"),
-        "energy_balance_error_run": var((), rel_all, "1", "residual / energy in, whole run"),
-        "typology_energy": var("typology", typ, "J", "dissipated energy by contact typology, window"),
-        "typology_fraction": var("typology", typ / dissipated if dissipated > 0 else typ * np.nan, "1",
-                                 "fraction of the dissipated energy by contact typology"),
-        "collision_rate": var("region", coll / max(rec.window_time, 1e-300), "s-1",
-                              "new bead-bead contacts per second by region"),
-        "collision_frequency_relative": var("region", 100 * coll / max(coll.sum(), 1), "%",
-                                            "relative collision frequency by region"),
-        "cg_speed": var(("gz", "gy"), cg[0], "m s-1", "coarse-grained translational speed |v| on the slab"),
-        "cg_spin": var(("gz", "gy"), cg[1], "rad s-1", "coarse-grained rotational speed |w| on the slab"),
-        "cg_vy": var(("gz", "gy"), cg[2], "m s-1", "coarse-grained velocity y on the slab"),
-        "cg_vz": var(("gz", "gy"), cg[3], "m s-1", "coarse-grained velocity z on the slab"),
-        "cg_samples": var(("gz", "gy"), cg_n, "1", "bead samples per coarse-graining cell"),
-        "n_bead": var((), g["n_beads"], "1", "beads"),
-        "n_agitator_particles": var((), g["n_agitator_particles"], "1", "spheres forming the disks"),
-        "chamber_length": var((), g["chamber_length"], "m", "chamber length (from the void volume)"),
-        "domain_length": var((), g["length"], "m", "simulated axial length (slice or chamber)"),
-        "domain_void_volume": var((), g["void_volume"], "m3", "void volume of the simulated domain"),
-        "tip_speed": var((), g["tip_speed"], "m s-1", "disk tip speed"),
-        "angular_velocity": var((), g["omega"], "rad s-1", "agitator angular velocity"),
-    }
-    ds = xr.Dataset(data, coords=coords)
-    ds.attrs["typology_definition"] = (
+    series = (Series("agitator_torque", "N m", "torque the agitator (disks + shaft) supplies, "
+                     "record-interval mean"),
+              Series("agitator_power", "W", "net power the agitator supplies, record-interval mean"),
+              Series("kinetic_energy", "J", "kinetic energy of the beads"))
+    time_long_name = "simulated time (end of the record interval)"
+    attrs = {"typology_definition": (
         "impact = contact normal damping + lubrication normal; shearing = tangential force x centre "
         "slip + lubrication tangential; rolling = tangential force x rotational slip; torsion = 0 "
-        "(no twisting torque in the model)")
-    ds.attrs["cg_slab_x"] = np.array(rec.slab)
-    return ds, RunInfo(seed=values["seed"], dt=sim.dt, steps=sim.step,
-                       wall_time_s=time.perf_counter() - t_wall,
-                       extra={"dt_limit": sim.dt_report.limit, "dt_binding": sim.dt_report.binding.interaction,
-                              "contact_time_s": g["t_c"], "normal_stiffness": k_n,
-                              "list_rebuilds": int(sim.counters[0]),
-                              "compute_seconds": sim.wall_seconds})
+        "(no twisting torque in the model)")}
+
+    def __init__(self, values):
+        super().__init__()
+        self.v = values
+        self.sim, self.g = sim, g = build(values)
+        self.k_n = g["k_n"]
+        self.k_t = self.k_n * values["tangential_stiffness_ratio"]
+        period = 60.0 / values["rpm"]
+        self.sample_steps = max(1, int(g["t_c"] / values["contact_samples_per_contact"] / sim.dt))
+        self.per_record = max(1, int(round(period / values["records_per_revolution"] / sim.dt
+                                           / self.sample_steps)))
+        self.record_steps = self.per_record * self.sample_steps
+        self.total = int(round(values["revolutions"] * period / sim.dt / self.record_steps)) \
+            * self.record_steps
+        self.transient = int(round(values["transient_revolutions"] * period / sim.dt
+                                   / self.record_steps)) * self.record_steps
+        self.smp = Sampler(values, g)
+        self.attrs = dict(self.attrs, cg_slab_x=np.array(self.smp.slab))
+        self.last = drive_state(sim) + (sim.time,)
+        self.start = energy_state(sim, self.k_n, self.k_t)
+        self.window_start = None
+        self.samples = 0
+        if self.transient == 0:
+            self._open_window()
+
+    def _record(self):
+        sim = self.sim
+        impulse, work = drive_state(sim)
+        span = sim.time - self.last[2]
+        self.record(sim.time, agitator_torque=(impulse - self.last[0]) / span,
+                    agitator_power=(work - self.last[1]) / span,
+                    kinetic_energy=sim.kinetic_energy())
+        self.last = (impulse, work, sim.time)
+
+    def _open_window(self):
+        self.smp.sample(self.sim, 0.0)  # contacts at the window start (no collisions counted)
+        self.smp.collisions[:] = 0
+        self.smp.cg[:] = 0
+        self.smp.window_time = 0.0
+        self.window_start = energy_state(self.sim, self.k_n, self.k_t)
+
+    def chunk(self):
+        return self.record_steps if self.window_start is None else self.sample_steps
+
+    def after_chunk(self):
+        sim = self.sim
+        if self.window_start is None:
+            self._record()
+            if sim.step >= self.transient:
+                self._open_window()
+            return
+        self.smp.sample(sim, self.sample_steps * sim.dt)
+        self.samples += 1
+        if self.samples % self.per_record == 0:
+            self._record()
+
+    def done(self):
+        return self.sim.step >= self.total
+
+    def progress(self):
+        return self.sim.step / self.total, f"{self.sim.time * self.v['rpm'] / 60:.2f} rev"
+
+    def finish(self):
+        sim, values, g, smp = self.sim, self.v, self.g, self.smp
+        end = energy_state(sim, self.k_n, self.k_t)
+        window_start, start = self.window_start, self.start
+        total, transient = self.total, self.transient
+        t = self.recorded_times()
+        power = self.recorded("agitator_power")
+        torque = self.recorded("agitator_torque")
+        k0 = mser5(power)
+        t_steady = float(t[k0] - (t[1] - t[0]) if k0 > 0 else 0.0)
+        use = t > max(t_steady, sim.time - (total - transient) * sim.dt) + 1e-12
+        p_mean, p_ci = block_mean_ci(power[use], values["ci_blocks"])
+        q_mean, q_ci = block_mean_ci(torque[use], values["ci_blocks"])
+        d, residual, rel = energy_balance(window_start, end)
+        _, _, rel_all = energy_balance(start, end)
+        span = end["time"] - window_start["time"]
+        typ = typology(d)
+        dissipated = typ.sum()
+        coll = smp.collisions
+        cg_n = smp.cg[0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cg = smp.cg[1:] / np.where(cg_n > 0, cg_n, np.nan)
+
+        def var(dims, value, units, long_name):
+            return (dims, value, {"units": units, "long_name": long_name})
+
+        centres = 0.5 * (smp.edges[1:] + smp.edges[:-1])
+        coords = {
+            "typology": var("typology", np.array(TYPOLOGY), "1", "contact typology"),
+            "audit_term": var("audit_term", np.array(AUDIT), "1", "dissipation term of the engine audit"),
+            "region": var("region", np.array(REGIONS), "1",
+                          "region: radial ring 1 (inner) - 3 (outer) x F(ront)/C(entre)/B(ack) along x"),
+            "gy": var("gy", centres, "m", "coarse-graining cell centre y"),
+            "gz": var("gz", centres, "m", "coarse-graining cell centre z"),
+        }
+        data = {
+            "net_power": var((), p_mean, "W", "steady-state mean net power"),
+            "net_power_ci": var((), p_ci, "W", "95% half-width of the net power (block means)"),
+            "mean_torque": var((), q_mean, "N m", "steady-state mean agitator torque"),
+            "mean_torque_ci": var((), q_ci, "N m", "95% half-width of the torque (block means)"),
+            "steady_state_start": var((), t_steady, "s", "start of the steady state (MSER-5 on the power)"),
+            "statistics_start": var((), float(t[use][0] - (t[1] - t[0])), "s",
+                                    "start of the averaging window: max(transient, steady-state start)"),
+            "steady_state_detected": var((), int(t_steady <= window_start["time"] + 1e-12), "1",
+                                         "1 if the detected steady state starts before the transient ends"),
+            "energy_in": var((), d["work"], "J", "work of agitator + shaft over the window"),
+            "delta_kinetic": var((), d["kinetic"], "J", "change of bead kinetic energy over the window"),
+            "delta_potential": var((), d["potential"], "J", "change of potential energy over the window"),
+            "delta_elastic_normal": var((), d["elastic_normal"], "J", "change of normal spring energy"),
+            "delta_elastic_tangential": var((), d["elastic_tangential"], "J",
+                                            "change of tangential spring energy (inside the audit terms)"),
+            "dissipation": var("audit_term", np.array([d[k] for k in AUDIT]), "J",
+                               "energy dissipated over the window, by audit term"),
+            "dissipation_power": var("audit_term", np.array([d[k] for k in AUDIT]) / span, "W",
+                                     "mean dissipated power over the window, by audit term"),
+            "energy_balance_residual": var((), residual, "J", "energy in - (changes + dissipation), window"),
+            "energy_balance_error": var((), rel, "1", "residual / energy in, steady window"),
+            "energy_balance_error_run": var((), rel_all, "1", "residual / energy in, whole run"),
+            "typology_energy": var("typology", typ, "J", "dissipated energy by contact typology, window"),
+            "typology_fraction": var("typology", typ / dissipated if dissipated > 0 else typ * np.nan, "1",
+                                     "fraction of the dissipated energy by contact typology"),
+            "collision_rate": var("region", coll / max(smp.window_time, 1e-300), "s-1",
+                                  "new bead-bead contacts per second by region"),
+            "collision_frequency_relative": var("region", 100 * coll / max(coll.sum(), 1), "%",
+                                                "relative collision frequency by region"),
+            "cg_speed": var(("gz", "gy"), cg[0], "m s-1", "coarse-grained translational speed |v| on the slab"),
+            "cg_spin": var(("gz", "gy"), cg[1], "rad s-1", "coarse-grained rotational speed |w| on the slab"),
+            "cg_vy": var(("gz", "gy"), cg[2], "m s-1", "coarse-grained velocity y on the slab"),
+            "cg_vz": var(("gz", "gy"), cg[3], "m s-1", "coarse-grained velocity z on the slab"),
+            "cg_samples": var(("gz", "gy"), cg_n, "1", "bead samples per coarse-graining cell"),
+            "n_bead": var((), g["n_beads"], "1", "beads"),
+            "n_agitator_particles": var((), g["n_agitator_particles"], "1", "spheres forming the disks"),
+            "chamber_length": var((), g["chamber_length"], "m", "chamber length (from the void volume)"),
+            "domain_length": var((), g["length"], "m", "simulated axial length (slice or chamber)"),
+            "domain_void_volume": var((), g["void_volume"], "m3", "void volume of the simulated domain"),
+            "tip_speed": var((), g["tip_speed"], "m s-1", "disk tip speed"),
+            "angular_velocity": var((), g["omega"], "rad s-1", "agitator angular velocity"),
+        }
+        extra = {"contact_time_s": g["t_c"], "normal_stiffness": self.k_n,
+                 "list_rebuilds": int(sim.counters[0])}
+        return data, coords, extra
 
 
 register(Scene("stirred_mill", "wet horizontal stirred media mill, perforated-disk agitator, pairwise "
-               "lubrication: power draw, energy balance, typology (seed 004)", PARAMS, run, (_check,)))
+               "lubrication: power draw, energy balance, typology (seed 004)", PARAMS,
+               StirredMillCase, (_check,)))

@@ -4,7 +4,10 @@ The liquid appears only through the near-field lubrication between close surface
 model). Formulas, sources and checks: ``/work/shared/reference/lubrication.md`` sections 2-4; what
 is implemented is summarised in ``docs/lubrication.md``.
 
-Conventions (shared with :mod:`millsim.engine.contact`):
+The engine reaches it through :class:`Lubrication` (a fluid model: the pair and wall hooks of
+the step loop and the explicit-integration time-step bound).
+
+Conventions (shared with :mod:`millsim.models.contact`):
 
 - ``n`` is the unit normal pointing FROM body j (or the wall) TO body i.
 - ``h`` is the surface gap r - a_i - a_j (negative while overlapping).
@@ -30,13 +33,17 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..engine.models import FluidKernels, ParticleModel, stable_identity
+from ..engine.timestep import StepBound, TimeStepError
 from .contact import FAST
-from .timestep import StepBound, TimeStepError
 
 PI = math.pi
 
 INTEGRATORS = ("verlet", "verlet_half_step", "gear")
-SAFETY = 0.5  # recommended dt = SAFETY * dt_stable (lubrication.md 4.5 step 4)
+# recommended dt = SAFETY * dt_stable. lubrication.md 4.5 suggests 0.5; the accuracy study
+# (docs/results/accuracy.md) measured the quick slice's net power at 0.1 Pa s 4.4 +- 1.6 % high
+# at 0.5 x and within 1.2 +- 1.6 % at 0.25 x the limit.
+SAFETY = 0.25
 
 
 # --------------------------------------------------------------------------------------------------
@@ -365,7 +372,7 @@ class LubricationStepLimit:
 
     def step_bound(self):
         """The bound as a :class:`~millsim.engine.timestep.StepBound` (to add to a TimeStepReport)."""
-        return StepBound(self.describe(), self.dt_stable, self.dt_recommended,
+        return StepBound("lubrication", self.describe(), self.dt_stable, self.dt_recommended,
                          advice=", or a larger h_min (dt_stable grows about linearly with h_min), "
                                 "or a lower viscosity; implicit lubrication is not implemented")
 
@@ -407,3 +414,102 @@ def lubrication_dt_limit(eta, h_min, a_min, m_min, k_n, gamma_n, integrator="ver
         dt = math.inf
     return LubricationStepLimit(dt, lambda_c, lambda_k, x11a, x_w, float(eta), float(h_min),
                                 float(a_min), float(m_min), integrator)
+
+
+# --------------------------------------------------------------------------------------------------
+# The fluid model the engine runs
+# --------------------------------------------------------------------------------------------------
+ETA, H_MIN, H_MAX = 0, 1, 2  # params: viscosity [Pa s], cutoffs as fractions of the smaller diameter
+
+
+def _pair_fluid(fp, o, col_t, col_d, ri, rj, n0, n1, n2, h, v, w, i, j):
+    """Add the pair lubrication of (i, j) to slot record ``o`` when the gap is below h_max.
+
+    Force on i joins the contact force (o[0:3]); the torques on i and j (not opposite for unequal
+    radii) go to o[col_t:col_t+6]; the normal and tangential dissipation to o[col_d:col_d+2] when
+    col_d >= 0. Cutoffs are fractions of the smaller diameter of the pair.
+    """
+    d_min = 2.0 * min(ri, rj)
+    if h >= fp[H_MAX] * d_min:
+        return
+    F0, F1, F2, Ti0, Ti1, Ti2, Tj0, Tj1, Tj2, Dn, Dt = pair_force_torque(
+        ri, rj, n0, n1, n2, h, v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2],
+        w[i, 0], w[i, 1], w[i, 2], w[j, 0], w[j, 1], w[j, 2], fp[H_MIN] * d_min, fp[ETA])
+    o[0] += F0
+    o[1] += F1
+    o[2] += F2
+    o[col_t], o[col_t + 1], o[col_t + 2] = Ti0, Ti1, Ti2
+    o[col_t + 3], o[col_t + 4], o[col_t + 5] = Tj0, Tj1, Tj2
+    if col_d >= 0:
+        o[col_d] += Dn
+        o[col_d + 1] += Dt
+
+
+def _wall_fluid(fp, wall, x, v, w, i, ri, n0, n1, n2, xi):
+    """Sphere-wall lubrication of particle i (also during contact, at h >= h_min); the wall spins
+    at omega about its axis (0 for planes). Returns (active, force (3), couple (3), dissipation
+    normal and tangential, lever from the wall's point to the sphere's centre (3), power the wall
+    puts in)."""
+    if not -xi < fp[H_MAX] * 2.0 * ri:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    om = wall[8]
+    cp0 = x[i, 0] - wall[1]
+    cp1 = x[i, 1] - wall[2]
+    cp2 = x[i, 2] - wall[3]
+    # the wall's rigid velocity at the sphere's centre
+    uc0 = om * (wall[5] * cp2 - wall[6] * cp1)
+    uc1 = om * (wall[6] * cp0 - wall[4] * cp2)
+    uc2 = om * (wall[4] * cp1 - wall[5] * cp0)
+    # wall_force_torque subtracts a (omega x n) from the slip it is given to reach the centre:
+    # hand it the slip at the surface
+    g0, g1, g2, c0, c1, c2, Dn, Dt = wall_force_torque(
+        ri, n0, n1, n2, -xi,
+        v[i, 0] - uc0 + ri * om * (wall[5] * n2 - wall[6] * n1),
+        v[i, 1] - uc1 + ri * om * (wall[6] * n0 - wall[4] * n2),
+        v[i, 2] - uc2 + ri * om * (wall[4] * n1 - wall[5] * n0),
+        w[i, 0], w[i, 1], w[i, 2], om * wall[4], om * wall[5], om * wall[6],
+        fp[H_MIN] * 2.0 * ri, fp[ETA])
+    # power = F . (wall velocity at the centre) + couple . wall spin
+    power = g0 * uc0 + g1 * uc1 + g2 * uc2 + om * (c0 * wall[4] + c1 * wall[5] + c2 * wall[6])
+    return True, g0, g1, g2, c0, c1, c2, Dn, Dt, cp0, cp1, cp2, power
+
+
+def _kernel(fn):
+    return stable_identity(njit(inline="always", cache=True, fastmath=FAST)(fn),
+                           f"lubrication.{fn.__name__}")
+
+
+KERNELS = FluidKernels(_kernel(_pair_fluid), _kernel(_wall_fluid))
+
+
+class Lubrication(ParticleModel):
+    """Pairwise lubrication (seed 004) as a fluid model of the engine.
+
+    Args:
+        eta: viscosity [Pa s] (0: the hooks run but add nothing; a dry scene passes no fluid).
+        h_min, h_max: inner and outer gap cutoffs as fractions of the smaller diameter of a pair
+            (sphere-wall: of the sphere's diameter).
+    """
+
+    kind, name = "fluid", "lubrication"
+    kernels = KERNELS
+
+    def __init__(self, eta=0.0, h_min=0.001, h_max=0.05):
+        check_lubrication_params(eta, h_min, h_max)
+        self.eta, self.h_min, self.h_max = float(eta), float(h_min), float(h_max)
+
+    def params(self):
+        return np.array([self.eta, self.h_min, self.h_max], dtype=float)
+
+    def reach(self, max_radius):
+        """How far beyond contact pairs interact: the neighbour list must hold those pairs."""
+        return self.h_max * 2.0 * max_radius
+
+    def step_bounds(self, smallest):
+        """Explicit stability with lubrication, from the smallest free particle (lubrication.md
+        4): ``smallest`` = (radius, mass, k_n, gamma_n, integrator); none when eta = 0."""
+        if self.eta <= 0:
+            return ()
+        a_min, m_min, k_n, gamma_n, integrator = smallest
+        return (lubrication_dt_limit(self.eta, self.h_min * 2.0 * a_min, a_min, m_min, k_n,
+                                     gamma_n, integrator).step_bound(),)

@@ -1,6 +1,6 @@
 """Error against run time (work-precision) figures from ``results/aggregate/accuracy.nc``.
 
-One figure per scene (``results/plots/error_vs_runtime_<scene>.png``), one row per observable:
+One figure per accuracy name (``millsim plot error_vs_runtime_<name>``), one row per observable:
 left, |relative error| of the mean over seeds against the wall time of one case, one line per
 series (integrator, viscosity, mode), with the standard error of the error as bars, the noise
 (sd over seeds of one case at the reference step, dotted) and the tolerance (dashed); the ringed
@@ -9,14 +9,11 @@ squared one the cheapest step for that observable alone. Right, the observable a
 time step (mean +- sd over seeds) with the converged reference. Matplotlib without pyplot state.
 """
 
-import os
-
 import numpy as np
-import xarray as xr
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
-from .analysis.accuracy import points_frame
+from ..analysis.accuracy import points_frame
 
 FLOOR = 1e-4  # errors below (0.01 %, e.g. exactly zero at the reference step) are drawn here
 
@@ -33,7 +30,8 @@ def _short(value):
     return f"{value:.3g}"
 
 
-def error_vs_runtime(ds, name, out):
+def error_vs_runtime(ds, out, name):
+    """Error against wall time, and value against step, of every observable of ``name``."""
     points = points_frame(ds, "point")
     choices = points_frame(ds, "choice")
     points = points[points["name"] == name]
@@ -108,9 +106,3 @@ def error_vs_runtime(ds, name, out):
         right.legend(fontsize="x-small")
     fig.suptitle(f"Error against run time: {name} (labels: ladder values)")
     fig.savefig(out, dpi=110)
-
-
-def plot(name, source, out):
-    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    with xr.open_dataset(source, engine="netcdf4") as ds:
-        error_vs_runtime(ds.load(), name, out)

@@ -1,6 +1,6 @@
 """Damage law of the Tavares model (seed 002 eqs 5-6), compiled for the step loop.
 
-Kept apart from :mod:`millsim.breakage.tavares` so that the loop imports it at module level: numba
+Kept apart from :mod:`millsim.models.breakage.tavares` so that the loop imports it at module level: numba
 caches a kernel only when what it calls is a global (a function handed in through a closure made
 every new process compile the Tavares loop again), and the loop should not pull in scipy.
 """

@@ -9,27 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..util.validation import check_range
 from . import contact as law
-
-
-def check_range(key, value, lo=None, hi=None, lo_open=False, hi_open=False):
-    """Raise ValueError naming ``key`` unless lo (<|<=) value (<|<=) hi."""
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{key}: must be a number, got {value!r}") from None
-    bad = math.isnan(value)
-    if lo is not None:
-        bad |= value <= lo if lo_open else value < lo
-    if hi is not None:
-        bad |= value >= hi if hi_open else value > hi
-    if bad:
-        left = "(" if lo_open or lo is None else "["
-        right = ")" if hi_open or hi is None else "]"
-        lo_s = "-inf" if lo is None else f"{lo:g}"
-        hi_s = "inf" if hi is None else f"{hi:g}"
-        raise ValueError(f"{key}: {value:g} is outside the allowed range {left}{lo_s}, {hi_s}{right}")
-    return value
 
 
 @dataclass(frozen=True)
@@ -110,10 +91,17 @@ class MaterialTable:
     contact_law: str = "hertz_mindlin"
 
     def __post_init__(self):
+        if self.contact_law not in law.LAWS:
+            raise ValueError(f"contact_law: must be one of {sorted(law.LAWS)}, got {self.contact_law!r}")
         names = [m.name for m in self.materials]
         if len(set(names)) != len(names):
             raise ValueError(f"materials: names must be unique, got {names}")
         self.index = {name: i for i, name in enumerate(names)}
+
+    @property
+    def law(self):
+        """The contact law as the engine sees it (:class:`~millsim.models.contact.ContactLaw`)."""
+        return law.LAWS[self.contact_law]
 
     def interaction(self, a: str, b: str) -> Interaction:
         for key in ((a, b), (b, a), "*"):

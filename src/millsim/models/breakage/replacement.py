@@ -4,13 +4,13 @@ The compiled loop decides *when* a particle breaks (absorbed energy of a stressi
 its damaged fracture energy) and stops the chunk there; :class:`TavaresReplacement` is the
 ``on_fracture`` handler that does the rest in Python:
 
-- draws the progeny family (:func:`~millsim.breakage.tavares.break_particle`) with counter-based
+- draws the progeny family (:func:`~millsim.models.breakage.tavares.break_particle`) with counter-based
   uniforms, so a run is reproducible whatever happens elsewhere;
 - replaces the parent by its progeny, placed inside it, moving with the parent's rigid motion
   (linear and angular momentum of the parent are kept);
 - registers every contact the progeny are created with (each other, the parent's neighbours, the
   walls), so that only overlap beyond the creation state produces force
-  (``Simulation.mark_creation_overlaps``);
+  (``TavaresModel.mark_creation_overlaps``);
 - gives breakable progeny a fresh fracture energy for their size (eqs 1-3), dummy spheres and
   unbreakable materials an infinite one;
 - resolved-unbreakable particles (below the global minimum size for a family, seed 002 section
@@ -21,15 +21,18 @@ its damaged fracture energy) and stops the chunk there; :class:`TavaresReplaceme
 - ``breakage_at`` chooses when a breakable particle breaks (reference section 6 leaves it open):
   ``"first_reach"``, as soon as the event's absorbed energy reaches E (t10' ~ t10_min, eq 9), or
   ``"end_of_loading"``, when the event ends, with t10' from its whole energy (eq 8);
-- keeps the books: unresolved fines mass, one record per breakage event and per recorded event.
+- keeps the books: unresolved fines mass, one record per breakage event and per recorded event;
+- gives the progeny the Simulation's per-particle tags: each inherits its parent's, except
+  ``generation`` (the parent's + 1), ``dummy`` (True for dummy spheres) and ``event_t10`` (the
+  t10' of the event that made it), when the simulation keeps tags of those names.
 """
 
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine.rng import hash_uniform
-from ..engine.state import disk_or_sphere_mass
+from ...engine.rng import hash_uniform
+from ...engine.state import disk_or_sphere_mass
 from . import tavares
 
 BREAKAGE_AT = ("first_reach", "end_of_loading")
@@ -69,11 +72,11 @@ class TavaresReplacement:
     """``on_fracture`` handler replacing broken particles by progeny families.
 
     Args:
-        materials: {name: :class:`~millsim.breakage.tavares.TavaresMaterial`} for the breakable
+        materials: {name: :class:`~millsim.models.breakage.tavares.TavaresMaterial`} for the breakable
             materials of the simulation (others never break).
         d_min: global minimum resolved size [m] (seed 002: 1/20 of the top size).
         seed: seed of the family, arrangement and fracture-energy draws.
-        policy, dummy_as: see :func:`~millsim.breakage.tavares.break_particle`.
+        policy, dummy_as: see :func:`~millsim.models.breakage.tavares.break_particle`.
         breakage_at: ``"first_reach"`` or ``"end_of_loading"`` (see the module text).
     """
 
@@ -86,8 +89,10 @@ class TavaresReplacement:
     events: list = field(default_factory=list)
     records: list = field(default_factory=list)
     fines_mass: float = 0.0
-    # particles (indices before the call) replaced by the last call, in the order of its events
+    # particles (indices before the call) replaced by the last call, in the order of its events,
+    # and their tags
     last_broken: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    last_parent_tags: dict = field(default_factory=dict)
     _draws: int = 0
 
     def __post_init__(self):
@@ -105,22 +110,22 @@ class TavaresReplacement:
         """Fresh fracture energies [J/kg] for the given particles (inf for materials that do not
         break; resolved-unbreakable sizes get one as well, their breakage is only recorded) and
         when their breakage is decided."""
-        p = sim.particles
+        p, model = sim.particles, sim.breakage
         names = [m.name for m in sim.table.materials]
         for i in np.atleast_1d(indices):
             mat = self.materials.get(names[p.material[i]])
             if mat is None or not mat.breakable:
-                p.e_frac[i] = np.inf
+                model.e_frac[i] = np.inf
                 continue
             d = 2.0 * p.radius[i]
-            p.break_at_end[i] = (self.breakage_at == "end_of_loading"
-                                 or not tavares.is_breakable(mat, d, self.d_min, self.policy))
+            model.break_at_end[i] = (self.breakage_at == "end_of_loading"
+                                     or not tavares.is_breakable(mat, d, self.d_min, self.policy))
             u = self._uniform(STREAM_ENERGY, self._next_key())
-            p.e_frac[i] = float(tavares.sample_fracture_energy(mat, d, np.array([u]))[0])
+            model.e_frac[i] = float(tavares.sample_fracture_energy(mat, d, np.array([u]))[0])
 
     def __call__(self, sim):
-        rows = sim.pop_fractures()
-        p = sim.particles
+        rows = sim.pop_events()
+        p, model = sim.particles, sim.breakage
         names = [m.name for m in sim.table.materials]
         broken = []
         new_x, new_r, new_mat, new_v, new_w, new_dummy = [], [], [], [], [], []
@@ -129,15 +134,15 @@ class TavaresReplacement:
             mat = self.materials[name]
             d = 2.0 * p.radius[i]
             if not tavares.is_breakable(mat, d, self.d_min, self.policy):
-                t10 = float(tavares.t10_prime(mat, specific, p.e_frac[i]))
+                t10 = float(tavares.t10_prime(mat, specific, model.e_frac[i]))
                 self.records.append(UnbreakableRecord(sim.time, p.x[i].copy(), d, name, specific,
-                                                      float(p.e_frac[i]), t10))
-                p.t10_recorded[i] = t10
-                p.e_frac[i] = np.inf  # only the first breaking event counts
+                                                      float(model.e_frac[i]), t10))
+                model.t10_recorded[i] = t10
+                model.e_frac[i] = np.inf  # only the first breaking event counts
                 continue
             key = self._next_key()
             progeny = tavares.break_particle(
-                mat, d, specific, float(p.e_frac[i]), direction,
+                mat, d, specific, float(model.e_frac[i]), direction,
                 self._uniform(STREAM_FAMILY, key), self._uniform(STREAM_SPIN, key),
                 d_min=self.d_min, policy=self.policy, dummy_as=self.dummy_as)
             broken.append(i)
@@ -151,23 +156,33 @@ class TavaresReplacement:
             new_dummy.append(progeny.dummy)
             self.fines_mass += progeny.fines_mass
             self.events.append(BreakageEvent(
-                sim.time, p.x[i].copy(), d, name, specific, float(p.e_frac[i]), progeny.t10,
+                sim.time, p.x[i].copy(), d, name, specific, float(model.e_frac[i]), progeny.t10,
                 progeny.family, k, progeny.fines_mass))
         self.last_broken = np.array(broken, dtype=np.int64)
+        self.last_parent_tags = {name: values[self.last_broken] for name, values in sim.tags.items()}
         if not broken:
             return
+        counts = [len(r) for r in new_r]
+        tags = {}
+        for name, parent in self.last_parent_tags.items():
+            tags[name] = np.repeat(parent, counts) + (1 if name == "generation" else 0)
+        if "dummy" in tags:
+            tags["dummy"] = np.concatenate(new_dummy)
+        if "event_t10" in tags:
+            tags["event_t10"] = np.repeat([ev.t10 for ev in self.events[-len(broken):]], counts)
         # add before removing, so that a system of one breaking particle is never empty
         first = sim.add_particles(np.concatenate(new_x), np.concatenate(new_r), new_mat,
-                                  v=np.concatenate(new_v), w=np.concatenate(new_w))[0]
+                                  v=np.concatenate(new_v), w=np.concatenate(new_w), tags=tags)[0]
         gone = np.zeros(sim.n_particles, bool)
         gone[self.last_broken] = True
         sim.remove_particles(gone)
         first -= len(broken)
         dummy = np.concatenate(new_dummy)
         new = np.arange(first, first + len(dummy))
-        sim.mark_creation_overlaps(new)
+        model = sim.breakage  # (its arrays were reallocated by add/remove)
+        model.mark_creation_overlaps(new)
         self.assign_fracture_energies(sim, new[~dummy])
-        sim.particles.e_frac[new[dummy]] = np.inf
+        model.e_frac[new[dummy]] = np.inf
 
     def resolved_mass(self, sim):
         """Mass of the resolved particles of the breakable materials [kg]; plus ``fines_mass`` it

@@ -1,28 +1,19 @@
-"""Figures from aggregated datasets and particle snapshots (matplotlib, no pyplot state).
+"""Ball-mill figures (seed 000) from an aggregate of ``millsim aggregate ballmill2d``.
 
-Each ``ballmill_*`` function draws one figure of seed 000 from an aggregate written by
-``millsim aggregate ballmill2d``; :func:`animation` renders an HDF5 snapshot file to a GIF.
-Axis labels take their units from the variables' ``units`` attributes.
+Each function draws one figure of the registry (millsim.plots: ``ballmill_<name>``). Axis labels
+take their units from the variables' ``units`` attributes. Matplotlib without pyplot state.
 """
 
 import itertools
 import json
-import os
 
-import h5py
 import numpy as np
 import xarray as xr
-from matplotlib.animation import PillowWriter
 from matplotlib.cm import ScalarMappable
-from matplotlib.collections import EllipseCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.ticker import LogFormatter
-
-from .io import read_case
-
-__all__ = ["PLOTS", "plot", "animation", "bond_austin_speed_factor"]
 
 SPEED = "n_over_nc"
 REFERENCE_END = 1.232  # zero of the Bond/Austin speed factor
@@ -60,7 +51,7 @@ def _speed_colours(ds: xr.Dataset):
     return [(s, colour.to_rgba(s)) for s in speeds]
 
 
-def ballmill_rate(ds: xr.Dataset, out: str) -> None:
+def rate(ds: xr.Dataset, out: str) -> None:
     """Fig. 6: relative comminution rate vs n/n_c, the empirical power shape, drive power."""
     fig = Figure(figsize=(7, 7.5), layout="constrained")
     ax_rate, ax_power = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
@@ -83,7 +74,7 @@ def ballmill_rate(ds: xr.Dataset, out: str) -> None:
     fig.savefig(out)
 
 
-def ballmill_size_distributions(ds: xr.Dataset, out: str) -> None:
+def size_distributions(ds: xr.Dataset, out: str) -> None:
     """Fig. 5: mass fraction per size class for each speed, mean and spread over snapshots."""
     variants = list(_variants(ds))
     fig = Figure(figsize=(7, 4.5 * len(variants)), layout="constrained")
@@ -129,17 +120,17 @@ def _maps(ds: xr.Dataset, name: str, title: str, out: str) -> None:
     fig.savefig(out)
 
 
-def ballmill_fragmentation_maps(ds: xr.Dataset, out: str) -> None:
+def fragmentation_maps(ds: xr.Dataset, out: str) -> None:
     """Fig. 7: where grains break, per rotation speed."""
     _maps(ds, "fracture_frequency", "Fracture frequency", out)
 
 
-def ballmill_pressure_maps(ds: xr.Dataset, out: str) -> None:
+def pressure_maps(ds: xr.Dataset, out: str) -> None:
     """Fig. 12: time-averaged local pressure, per rotation speed."""
     _maps(ds, "pressure", "Time-averaged pressure", out)
 
 
-def ballmill_force_chains(ds: xr.Dataset, out: str) -> None:
+def force_chains(ds: xr.Dataset, out: str) -> None:
     """Figs. 10-11: chain-length distribution, maximum pressure and force along a chain."""
     fig = Figure(figsize=(14, 4.5), layout="constrained")
     ax_count, ax_pressure, ax_force = fig.subplots(1, 3)
@@ -173,66 +164,3 @@ def ballmill_force_chains(ds: xr.Dataset, out: str) -> None:
         ax.legend(fontsize="small")
     fig.suptitle("Force chains (run without fragmentation)")
     fig.savefig(out)
-
-
-def _frame(group):
-    """Positions (N x 2), radii, speeds and the wall mask of one snapshot frame."""
-    radius = group["radius"][:]
-    wall = (group["kinematic"][:].astype(bool) if "kinematic" in group
-            else np.zeros(len(radius), bool))
-    speed = np.linalg.norm(group["velocity"][:, :2], axis=1)
-    return group["position"][:, :2], radius, speed, wall
-
-
-def animation(snapshots: str | os.PathLike[str], out: str, fps: int = 10) -> None:
-    """GIF of an HDF5 snapshot file: grains coloured by speed, wall particles grey."""
-    with h5py.File(snapshots, "r") as f:
-        frames = [f["frames"][name] for name in sorted(f["frames"])]
-        if not frames:
-            raise ValueError(f"{snapshots}: no frames")
-        position, radius, _, _ = _frame(frames[0])
-        reach = np.abs(position).max() + radius.max()
-        vmax = max(speed[~wall].max(initial=0.0) for *_, speed, wall in map(_frame, frames))
-        colour = ScalarMappable(Normalize(0.0, vmax or 1.0), "viridis")
-        fig = Figure(figsize=(5.5, 5), layout="constrained")
-        ax = fig.add_subplot()
-        ax.set(xlim=(-reach, reach), ylim=(-reach, reach), aspect="equal", xlabel="x [m]",
-               ylabel="y [m]")
-        fig.colorbar(colour, ax=ax, label="grain speed [m s-1]")
-        writer = PillowWriter(fps=fps)
-        with writer.saving(fig, out, dpi=100):
-            for group in frames:
-                position, radius, speed, wall = _frame(group)
-                colours = colour.to_rgba(speed)
-                colours[wall] = (0.6, 0.6, 0.6, 1.0)
-                for old in list(ax.collections):
-                    old.remove()
-                ax.add_collection(EllipseCollection(
-                    2 * radius, 2 * radius, 0.0, units="xy", offsets=position,
-                    offset_transform=ax.transData, facecolors=colours, edgecolors="none"))
-                ax.set_title(f"t = {group.attrs['time']:.3f} s")
-                writer.grab_frame()
-
-
-PLOTS = {
-    "ballmill_rate": ballmill_rate,
-    "ballmill_size_distributions": ballmill_size_distributions,
-    "ballmill_fragmentation_maps": ballmill_fragmentation_maps,
-    "ballmill_pressure_maps": ballmill_pressure_maps,
-    "ballmill_force_chains": ballmill_force_chains,
-}
-
-
-def plot(kind: str, source: str | os.PathLike[str], out: str | os.PathLike[str]) -> None:
-    """Draw figure ``kind`` from ``source`` (an aggregate, or snapshots for ``animation``)."""
-    if kind == "animation":
-        animation(source, os.fspath(out))
-        return
-    if kind.startswith("bed_"):  # bed_impact figures (seed 002 Figs 20-23)
-        from .analysis.bed_impact import BED_PLOTS
-
-        PLOTS.update(BED_PLOTS)
-    if kind not in PLOTS:
-        known = ", ".join([*PLOTS, "animation"])
-        raise ValueError(f"kind: unknown plot {kind!r}; known: {known}")
-    PLOTS[kind](read_case(source), os.fspath(out))

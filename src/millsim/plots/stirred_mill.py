@@ -1,15 +1,13 @@
 """Stirred-mill figures (seed 004): power curves, calibration residuals (Figs 5-7), contact
 typology bars (Fig 9), collision-frequency region maps (Fig 8) and coarse-grained velocity fields
 (Fig 11). Matplotlib without pyplot state; inputs are the aggregate netCDF of
-``millsim aggregate stirred_mill`` or the calibration CSV tables.
+``millsim aggregate stirred_mill`` or the calibration CSV tables of ``millsim analyse stirred-mill``.
 """
 
-import os
-
 import numpy as np
-import pandas as pd
-import xarray as xr
 from matplotlib.figure import Figure
+
+from ..analysis.stirred_mill import friction_ssr
 
 SYNTHETIC_NOTE = "reference: see config/reference/SOURCES.md (shipped: synthetic twin, not a measurement)"
 
@@ -110,9 +108,10 @@ def velocity(ds, out):
     fig.savefig(out, dpi=110)
 
 
-def friction(table, summary, out):
-    """Seed Fig. 5: dry power vs speed per friction with the reference; residuals vs friction."""
-    t, s = pd.read_csv(table), pd.read_csv(summary)
+def friction(t, out):
+    """Seed Fig. 5: dry power vs speed per friction with the reference; residuals vs friction
+    (from the stage 1 residual table)."""
+    s = friction_ssr(t)
     fig = Figure(figsize=(11, 4.5), layout="constrained")
     a, b = fig.subplots(1, 2)
     for mu, sub in t.groupby("friction"):
@@ -129,9 +128,8 @@ def friction(table, summary, out):
     fig.savefig(out, dpi=120)
 
 
-def viscosity(table, out):
+def viscosity(t, out):
     """Seed Fig. 6: power at the calibration speed vs eta_sim; reference per fluid vs eta_exp."""
-    t = pd.read_csv(table)
     fig = Figure(figsize=(6.5, 4.5), layout="constrained")
     ax = fig.subplots()
     sim = t.drop_duplicates("eta_sim").sort_values("eta_sim")
@@ -147,9 +145,8 @@ def viscosity(table, out):
     fig.savefig(out, dpi=120)
 
 
-def prediction(table, out):
+def prediction(t, out):
     """Seed Fig. 7: calibrated power curves vs reference, per fluid."""
-    t = pd.read_csv(table)
     fig = Figure(figsize=(6.5, 4.5), layout="constrained")
     ax = fig.subplots()
     for k, (fluid, sub) in enumerate(t.groupby("fluid", sort=False)):
@@ -161,19 +158,3 @@ def prediction(table, out):
            title="Calibrated model vs reference power")
     ax.legend(fontsize="x-small")
     fig.savefig(out, dpi=120)
-
-
-PLOTS = ("power", "typology", "regions", "velocity", "friction", "viscosity", "prediction")
-
-
-def plot(kind, inputs, out):
-    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    if kind in ("power", "typology", "regions", "velocity"):
-        with xr.open_dataset(inputs[0], engine="netcdf4") as ds:
-            globals()[kind](ds.load(), out)
-    elif kind == "friction":
-        friction(inputs[0], inputs[1], out)
-    elif kind in ("viscosity", "prediction"):
-        globals()[kind](inputs[0], out)
-    else:
-        raise ValueError(f"kind: must be one of {PLOTS}, got {kind!r}")

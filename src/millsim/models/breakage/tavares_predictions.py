@@ -1,0 +1,135 @@
+"""Analytic expectations of the Tavares model for single-particle tests (seed 002 section 4.1).
+
+Energy bases (docs/tavares.md section 2). The *set* specific energy of a test, ``Ek/m``, is the
+**stressing (input)** energy: 1/2 v^2 of a particle thrown at a plate, 1/2 M v^2 / m of a
+drop-weight striker of mass M. The particle absorbs the share ``e = k_s/(k_p + k_s)`` of it (eq 4),
+and the model compares the *absorbed* energy ``e Ek/m`` with its fracture energy, whose median is
+``e E_inf[1 + (d0/d)^phi]`` (eq 3): the breakage probability against the input energy is eq 1 with
+median ``E_inf[1 + (d0/d)^phi]``.
+
+- breakage probability of one impact: eqs 1-2 at the absorbed energy (``breakage_probability``);
+- fraction broken after each of n repeated impacts: integration over the fracture-energy
+  distribution of the damage sequence E_(k+1) = E_k (1 - D(e Ek / E_k)) (eqs 5-6)
+  (``repeated_impact_broken``);
+- t10 of the broken particles: eq 7 with E50b the median fracture energy of the particles that
+  break at that energy (Tavares and Carvalho 2009) (``t10_model``);
+- product size distribution: eq 10 through that t10, eqs 11-12 below d/75
+  (``product_passing_model``); seed 002 Table 2 (``table2_passing``).
+
+They decide what the single-particle scene writes as its analytic columns, so they belong to the
+models (and the provenance hash), not to the analysis.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from . import tavares
+from .damage import damage_fraction
+
+# Seed 002 Table 2 (t10' = 3 %, Table 1 parameters): fragments per relative size (rows) in each
+# of the 7 families (columns), dummy spheres, and the family probabilities.
+TABLE2_SIZES = np.array([0.841, 0.707, 0.595, 0.500, 0.420, 0.354, 0.297, 0.250, 0.210])
+TABLE2_COUNTS = np.array([[1, 1, 0, 0, 1, 1, 1], [0, 0, 2, 1, 0, 0, 0], [1, 0, 0, 2, 1, 1, 0],
+                          [0, 2, 1, 0, 0, 0, 2], [1, 0, 1, 1, 1, 1, 1], [1, 1, 0, 1, 1, 0, 0],
+                          [0, 1, 1, 2, 1, 2, 0], [1, 2, 0, 0, 0, 1, 2], [1, 1, 2, 0, 1, 1, 1]])
+TABLE2_DUMMY = np.array([5, 5, 5, 6, 4, 5, 4])
+TABLE2_PROB = np.array([34, 27, 23, 9, 5, 1, 1]) / 100.0
+
+
+def absorbed_share(mat, partner_stiffness=tavares.STEEL_STIFFNESS):
+    """e = k_m/(k_p + k_m): the particle's share of an impact on a body of stiffness k_m (eq 4)."""
+    return tavares.energy_share(mat.k, partner_stiffness)
+
+
+def stressing_median(mat, d, share):
+    """Median fracture energy on the stressing basis of a test whose absorbed share is ``share``."""
+    return float(tavares.median_fracture_energy(mat, d)) / share
+
+
+def breakage_probability(mat, d, specific_energy, share):
+    """Eq 1-2: probability that one impact of input energy Ek/m [J/kg] breaks a fresh particle."""
+    return tavares.fracture_energy_cdf(mat, d, share * np.asarray(specific_energy, dtype=float))
+
+
+@njit(cache=True)
+def _impacts_to_break(E, eps, gamma, n):
+    """Impact (1..n) at which each fracture energy E breaks under repeated absorbed energy eps,
+    n + 1 if it survives all n (eqs 5-6 between impacts)."""
+    out = np.full(E.size, n + 1, dtype=np.int64)
+    for i in range(E.size):
+        e = E[i]
+        for k in range(1, n + 1):
+            if eps >= e:
+                out[i] = k
+                break
+            e *= 1.0 - damage_fraction(eps / e, gamma)
+    return out
+
+
+def repeated_impact_broken(mat, d, specific_energy, share, impacts, gamma=None, grid=200_000):
+    """Cumulative fraction broken after each of ``impacts`` impacts at the same input energy.
+
+    A particle of fracture energy E breaks at impact k if the absorbed energy e Ek/m reaches its
+    current (damaged) E_k; otherwise E_(k+1) = E_k (1 - D) with D from eq 6 at r = e Ek/(m E_k).
+    The fraction is integrated over the truncated lognormal of E by the midpoint rule in its
+    probability (``grid`` quantiles), so it is exact to ~1/grid.
+    """
+    gamma = mat.gamma if gamma is None else float(gamma)
+    u = (np.arange(grid) + 0.5) / grid
+    E = np.asarray(tavares.sample_fracture_energy(mat, d, u), dtype=float)
+    k = _impacts_to_break(E, float(share * specific_energy), gamma, int(impacts))
+    return np.array([(k <= n).mean() for n in range(1, impacts + 1)])
+
+
+def median_of_broken(mat, d, absorbed):
+    """E50b: median fracture energy of the particles that break at absorbed energy ``absorbed``."""
+    E50 = float(tavares.median_fracture_energy(mat, d))
+    p = float(tavares.fracture_energy_cdf(mat, d, absorbed))
+    if p <= 0:
+        return math.nan
+    return float(tavares.truncated_lognormal_ppf(0.5 * p, E50, mat.Emax_over_E50 * E50, mat.sigma))
+
+
+def t10_model(mat, d, specific_energy, share, median="broken"):
+    """Eq 7 [%]: t10 = A [1 - exp(-b' Ek/E50b)] of the broken particles at input energy Ek/m.
+
+    ``median`` "broken": E50b is the median fracture energy of the particles broken at that
+    energy (Tavares and Carvalho 2009); "all": the median of the whole size class. The ratio is
+    formed on the absorbed basis (same as the stressing basis, the share cancels).
+    """
+    absorbed = share * float(specific_energy)
+    if median == "broken":
+        E50b = median_of_broken(mat, d, absorbed)
+    else:
+        E50b = float(tavares.median_fracture_energy(mat, d))
+    return float(tavares.t10_population(mat, absorbed, E50b))
+
+
+def product_passing_model(mat, d, specific_energy, share, x_rel, median="broken"):
+    """Modelled % passing x_rel = x/d of the broken particles (eq 10 with eq 7's t10, eqs 11-12
+    below d/75)."""
+    t10 = t10_model(mat, d, specific_energy, share, median)
+    if not np.isfinite(t10):
+        return np.full(np.shape(x_rel), np.nan)
+    return tavares.cumulative_passing(t10, x_rel, mat)
+
+
+def table2_passing():
+    """Mean % passing each relative size of seed 002 Table 2 (fragment of size x_k retained on
+    x_k, dummies pass x_min; each family normalised by its own volume)."""
+    vol = TABLE2_COUNTS * TABLE2_SIZES[:, None] ** 3
+    dummy = TABLE2_DUMMY * 0.210**3
+    frac = np.vstack([vol, dummy]) / (vol.sum(0) + dummy)
+    mean = frac @ TABLE2_PROB
+    return 100 * np.array([mean[k + 1:].sum() for k in range(9)])
+
+
+def table2_comparison(t10=3.0):
+    """(relative sieves, seed Table 2, our families' mean, eq 10 target) in % passing."""
+    sieves = tavares.SIEVE_RATIO ** -np.arange(1.0, 10.0)
+    tab = tavares.generate_families(t10, tavares.TABLE1_AVERAGE)
+    ours = tab.passing(sieves)
+    target = tavares.cumulative_passing(t10, sieves, tavares.TABLE1_AVERAGE)
+    return sieves, table2_passing(), np.asarray(ours), np.asarray(target)
