@@ -9,6 +9,7 @@ from scipy import stats
 from millsim.breakage.weibull import (fracture_probability, rosin_rammler_cdf, rosin_rammler_radius,
                                       split_disk)
 from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from millsim.analysis.rates import steady_rate
 from millsim.scenes.base import RunContext, get_scene
 
 
@@ -78,19 +79,59 @@ def test_fracture_decisions_follow_the_weibull_probability(dt_factor):
     assert lo <= k <= hi, (k, trials * p)
 
 
+def test_steady_rate_counts_the_window_and_blocks():
+    """Events in [t_start, t_end] over the window length, and the Student-t 95 % half-width of
+    the block rates, against numbers worked out here. Events before the window (the transient)
+    must not count, and the rate divides by the window, not by the whole run."""
+    times = [0.1, 0.5, 0.9,  # transient: not counted
+             1.1, 1.2, 1.3, 1.6, 2.2, 2.4, 2.45, 2.9]  # in [1, 3]: blocks of 0.5 s hold 3, 1, 3, 1
+    rate, half, blocks = steady_rate(times, 1.0, 3.0, blocks=4)
+    assert rate == pytest.approx(8 / 2.0, rel=1e-12)
+    np.testing.assert_allclose(blocks, [6.0, 2.0, 6.0, 2.0], rtol=1e-12)
+    sd = math.sqrt(4 * 2.0**2 / 3)  # sample sd of (6, 2, 6, 2)
+    assert half == pytest.approx(3.182446305284263 * sd / 2.0, rel=1e-9)  # t(0.975, 3) sd / sqrt 4
+    with pytest.raises(ValueError, match="empty window"):
+        steady_rate(times, 3.0, 3.0)
+
+
 def test_mill_conserves_mass_with_dust_and_refill():
     scene = get_scene("ballmill2d")
-    values = scene.resolve(dict(duration=0.25, transient=0.05, weibull_c=1e-8, sieve_radius=1.2e-3,
-                                record_interval=0.01, snapshot_interval=0.05))
-    ds, _ = scene.run(values, RunContext())
+    duration, transient = 0.25, 0.05
+    values = scene.resolve(dict(duration=duration, transient=transient, weibull_c=1e-8,
+                                sieve_radius=1.2e-3, record_interval=0.01, snapshot_interval=0.05))
+    ds, info = scene.run(values, RunContext())
+    assert info.steps == round(duration / info.dt)
+    units = {"grains": "1", "fracture_events": "1", "dust_mass": "kg", "kinetic_energy": "J",
+             "drive_torque": "N m", "drive_power": "W", "pressure": "Pa", "mean_drive_power": "W",
+             "n_c": "s-1", "event_time": "s", "event_radius": "m", "event_force": "N",
+             "comminution_rate": "s-1", "comminution_rate_ci": "s-1",
+             "fracture_frequency": "s-1 m-2", "size_distribution": "kg", "mass_balance_error": "kg"}
+    assert {name: ds[name].attrs["units"] for name in units} == units
     assert int(ds.fracture_events[-1]) > 20
     assert float(ds.dust_mass[-1]) > 0
-    initial = float(ds.grains[0])  # sanity: grains present throughout
-    assert initial > 50
+    # grains from the filling: filling x 0.82 (random 2D packing) x pi R^2 / mean raw disk area
+    # pi r^2 (1 + spread^2 / 3); the first record precedes the first fracture
+    initial = round(0.4 * 0.82 * math.pi * 0.05**2 / (math.pi * 2.5e-3**2 * (1 + 0.1**2 / 3)))
+    assert float(ds.event_time[0]) > float(ds.time[0]) and int(ds.grains[0]) == initial == 131
     raw = 2000.0 * math.pi * values["grain_radius"] ** 2 * values["thickness"]
     assert abs(float(ds.mass_balance_error)) < 1e-9 * raw * initial
     # Refill happened: more dust left than a raw grain's mass means grains were returned.
     assert float(ds.dust_mass[-1]) > raw
+
+    # comminution rate: events after the transient over the window (duration - transient), with
+    # the Student-t half-width of 10 block rates (rate_blocks default)
+    events = ds.event_time.values
+    window = duration - transient
+    counted = (events >= transient) & (events <= duration)
+    assert events.size > counted.sum() > 50  # the transient had events that must not count
+    assert float(ds.comminution_rate) == pytest.approx(counted.sum() / window, rel=1e-12)
+    counts, _ = np.histogram(events, bins=np.linspace(transient, duration, 11))
+    block_rates = counts / (window / 10)
+    half = stats.t.ppf(0.975, 9) * block_rates.std(ddof=1) / math.sqrt(10)
+    assert float(ds.comminution_rate_ci) == pytest.approx(half, rel=1e-9)
+    # the fracture map holds the same events per time and area
+    cell = float(ds.gx[1] - ds.gx[0])
+    assert float(ds.fracture_frequency.sum()) * cell**2 * window == pytest.approx(counted.sum(), rel=1e-12)
 
 
 def test_force_chain_variant_carries_no_breakage_outputs():
@@ -102,4 +143,12 @@ def test_force_chain_variant_carries_no_breakage_outputs():
     ds, _ = scene.run(values, RunContext())
     assert "event_time" not in ds and "size_distribution" not in ds and "fracture_frequency" not in ds
     assert float(ds.chain_count.sum()) > 0
-    assert np.isfinite(ds.pressure).any()
+    # pressure map: grains only inside the drum, so cells wholly outside it (centre beyond the
+    # radius by more than half a cell diagonal plus a grain) are empty (NaN); pressures >= 0
+    p = ds.pressure.values
+    cell = float(ds.gx[1] - ds.gx[0])
+    gx, gy = np.meshgrid(ds.gx.values, ds.gy.values)
+    outside = np.hypot(gx, gy) > 0.04 + cell / math.sqrt(2)
+    assert outside.any() and np.isnan(p[outside]).all()
+    assert np.isfinite(p).sum() > 0.25 * p.size and np.nanmin(p) >= 0
+    assert ds.pressure.attrs["units"] == "Pa" and ds.chain_max_pressure.attrs["units"] == "Pa"

@@ -1,13 +1,16 @@
 """The command line: help, scene listing, a real run to a self-describing file, bad input, and the
 analyses' bad input."""
 
+import math
 import subprocess
 import sys
 
 import pytest
 
+import millsim
 from millsim.cli import main
 from millsim.io import case_parameters, read_case
+from millsim.scenes.base import get_scene
 
 
 def test_help_and_scenes(capsys):
@@ -33,17 +36,56 @@ def test_help_and_scenes(capsys):
 
 
 def test_run_writes_self_describing_case(tmp_path, capsys):
+    """A 2D linear_hw pair collision at a requested step, through the command line. The file holds
+    that step, the step count its time record implies, every parameter as given, the software
+    versions of this process, SI units by name, and the physics of the damped linear oscillator.
+
+    Closed form (seed 000 linear_hw, ballmill.md section 5): relative overlap x'' = -w0^2 x -
+    2 beta x', w0^2 = k / m_eff, beta = gamma_N / 2, w = sqrt(w0^2 - beta^2); x = (v/w) e^(-beta t)
+    sin(w t). The clipped force m_eff (w0^2 x + 2 beta x') reaches zero at w t_c = pi - atan2(2 beta
+    w, w^2 - beta^2), where the separation speed is v e^(-beta t_c) (so e = exp(-beta t_c)); the
+    largest overlap is at tan(w t) = w / beta. The contact end is interpolated between steps, an
+    error of order dt / t_c = 1e-3; the overlap is sampled every step, error O((w dt)^2).
+    """
     out = tmp_path / "c.nc"
+    dt = 2e-7
     assert main(["run", "collision", "--set", "contact_law=linear_hw", "--set", "dim=2",
-                 "--out", str(out), "--quiet"]) == 0
+                 "--set", f"dt={dt}", "--out", str(out), "--quiet"]) == 0
     ds = read_case(out)
     assert ds.attrs["scene"] == "collision"
-    assert case_parameters(ds)["contact_law"] == "linear_hw"
-    for key in ("seed", "dt", "steps", "wall_time_s", "millsim_version", "engine_hash"):
-        assert key in ds.attrs
-    assert all("units" in ds[v].attrs for v in ds.variables)
+    assert ds.attrs["dt"] == dt and ds.attrs["seed"] == 0
+    time = ds["time"].values
+    assert ds.attrs["steps"] == len(time) - 1
+    assert time[-1] == pytest.approx(ds.attrs["steps"] * dt, rel=1e-12)
+    assert ds.attrs["wall_time_s"] > 0
+    assert ds.attrs["millsim_version"] == millsim.__version__
+    assert ds.attrs["engine_hash"] == millsim.provenance_hash()
+    params = case_parameters(ds)
+    # every parameter round-trips exactly: the two given and the defaults of the declaration
+    assert params == {p.name: p.default for p in get_scene("collision").params} | {
+        "contact_law": "linear_hw", "dim": 2, "dt": dt}
+    units = {"time": "s", "overlap": "m", "normal_force": "N", "normal_velocity": "m s-1",
+             "restitution": "1", "contact_time": "s", "restitution_analytic": "1",
+             "contact_time_analytic": "s", "max_overlap": "m"}
+    assert {v: ds[v].attrs["units"] for v in ds.variables} == units
+
+    m_eff = 2500.0 * math.pi * 1e-3**2 * 0.01 / 2  # density pi r^2 thickness, reduced mass of twins
+    w0 = math.sqrt(8e3 / m_eff)
+    beta = 800.0 / 2
+    w = math.sqrt(w0**2 - beta**2)
+    t_c = (math.pi - math.atan2(2 * beta * w, w**2 - beta**2)) / w
+    t_m = math.atan2(w, beta) / w
+    assert float(ds["restitution_analytic"]) == pytest.approx(math.exp(-beta * t_c), rel=1e-12)
+    assert float(ds["contact_time_analytic"]) == pytest.approx(t_c, rel=1e-12)
+    assert float(ds["restitution"]) == pytest.approx(math.exp(-beta * t_c), rel=1e-3)
+    assert float(ds["contact_time"]) == pytest.approx(t_c, rel=2 * dt / t_c)
+    assert float(ds["max_overlap"]) == pytest.approx(math.exp(-beta * t_m) * math.sin(w * t_m) / w,
+                                                     rel=1e-4)  # v = 1 m/s
+    assert float(ds["normal_velocity"][0]) == pytest.approx(-1.0)  # approaching at the set speed
+
     assert main(["info", str(out)]) == 0
-    assert "restitution" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "restitution = 0.5" in text and "contact_law = linear_hw" in text
 
 
 @pytest.mark.parametrize("sets,needle", [
@@ -99,9 +141,19 @@ def test_packing_case_file(tmp_path, container):
                  "--set", "settle_steps=3000", "--set", "spinup_steps=1000", "--set", "steps=1000",
                  "--set", "record_every=500", "--out", str(out), "--quiet"]) == 0
     ds = read_case(out)
-    assert ds.attrs["scene"] == "packing" and ds.attrs["steps"] == 3000 + (1000 if container == "drum" else 0) + 1000
-    assert float(ds.particle_steps_per_second) > 0
-    assert (ds.contacts_per_particle > 0).all()
-    if container == "drum":
-        # The shell drives the charge: positive mean power into it.
+    drum = container == "drum"
+    assert ds.attrs["scene"] == "packing" and ds.attrs["steps"] == 3000 + (1000 if drum else 0) + 1000
+    # settling (and spin-up) at settle_dt = 1e-5 s, then the timed stage at dt = 1e-6 s
+    assert ds.attrs["dt"] == 1e-6
+    assert float(ds["time"][-1]) == pytest.approx((3000 + (1000 if drum else 0)) * 1e-5 + 1000 * 1e-6)
+    # throughput = particle steps of the timed stage / its wall time
+    assert float(ds.particle_steps_per_second) == pytest.approx(
+        1200 * 1000 / float(ds.timed_wall_time), rel=1e-12)
+    assert ds.particle_steps_per_second.attrs["units"] == "s-1"
+    assert (ds.contacts_per_particle > 0).all()  # a bed lying on the floor touches itself
+    if drum:
+        # the shell's power is its drive torque (minus the charge's torque on it, about its y
+        # axis) x its angular velocity 9.5 rad/s; and positive: the shell drives the charge
+        assert float(ds.shell_power) == pytest.approx(-float(ds.shell_torque) * 9.5, rel=1e-9)
         assert float(ds.shell_power) > 0
+        assert ds.shell_power.attrs["units"] == "W" and ds.shell_torque.attrs["units"] == "N m"

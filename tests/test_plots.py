@@ -92,7 +92,19 @@ def test_aggregate_stacks_along_speed_and_normalises_rate(cases):
     assert not {"time", "event", "snapshot"} & set(ds.dims)
     assert ds["mass_fraction"].dims == ("n_over_nc", "size_class")
     np.testing.assert_allclose(ds["mass_fraction"].sum("size_class"), 1.0)
-    assert (ds["mass_fraction_std"] > 0).all()
+    # per case: the mass fraction of each snapshot, then its mean and (population) spread over
+    # the snapshots, from the case file's own size distribution
+    for path in cases:
+        case = read_case(path)
+        mass = case["size_distribution"].values  # (snapshot, size_class)
+        fraction = mass / mass.sum(1, keepdims=True)
+        speed = float(case["n_over_nc"])
+        np.testing.assert_allclose(ds["mass_fraction"].sel(n_over_nc=speed), fraction.mean(0), rtol=1e-12)
+        np.testing.assert_allclose(ds["mass_fraction_std"].sel(n_over_nc=speed), fraction.std(0),
+                                   rtol=1e-12)
+        np.testing.assert_allclose(ds["size_distribution_mean"].sel(n_over_nc=speed), mass.mean(0),
+                                   rtol=1e-12)
+    assert ds["size_distribution_mean"].attrs["units"] == "kg" and ds["mass_fraction"].attrs["units"] == "1"
     assert ds["pressure"].dims == ("n_over_nc", "gy", "gx")
     # provenance: equal attributes survive, differing ones do not
     assert ds.attrs["param_filling"] == 0.3 and ds.attrs["scene"] == "ballmill2d"

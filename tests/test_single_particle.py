@@ -4,8 +4,11 @@ The scene uses the same compiled spec variant as tests/test_tavares_engine.py (3
 walls, no gravity, Tavares), so this file adds no kernel compilation of its own.
 """
 
+import math
+
 import numpy as np
 import pytest
+from scipy import special, stats
 
 from millsim.analysis import tavares_verification as tv
 from millsim.breakage import tavares
@@ -96,9 +99,39 @@ def test_drop_weight_sums_the_two_contacts():
     assert bool(ds["converged"].all())
 
 
+# Seed 002 (Tavares et al. 2021) Table 4, copper ore: E_inf [J/kg, stress-vs-steel basis], d0 [m],
+# phi, sigma, A [%], b'; incomplete-beta alpha_n, beta_n of eq 10; Table 5: Y, nu (steel 210 GPa,
+# 0.3). Section 3.1: Emax/E50 = 4 in the single-particle verification.
+CU = dict(E_inf=213.5, d0=8.07e-3, phi=1.22, sigma=0.799, A=67.7, b_prime=0.029)
+CU_BETA = {1.2: (0.51, 11.95), 1.5: (1.07, 13.87), 2: (1.01, 8.09), 4: (1.08, 3.03),
+           25: (1.01, 0.53), 50: (1.03, 0.36), 75: (1.03, 0.30)}
+CU_SHARE = (210e9 / (1 - 0.3**2)) / (52e9 / (1 - 0.25**2) + 210e9 / (1 - 0.3**2))  # eq 4 on steel
+
+
+def _product_model(d, energy_ratio):
+    """The broken particles' product of eqs 1-3, 7, 10-12 coded here, at input energy
+    energy_ratio x the stressing-basis median: (absorbed E50, t10, {x/d: % passing})."""
+    E50 = CU_SHARE * CU["E_inf"] * (1 + (CU["d0"] / d) ** CU["phi"])  # eq 3, absorbed basis
+    Emax = 4 * E50
+    eps = energy_ratio * E50  # absorbed = share x (energy_ratio x E50 / share)
+
+    def cdf(E):  # eqs 1-2
+        return stats.norm.cdf(math.log(E * Emax / (Emax - E) / E50) / CU["sigma"])
+
+    # E50b of eq 7: the median fracture energy of the particles that break at eps
+    Es = E50 * math.exp(CU["sigma"] * stats.norm.ppf(cdf(eps) / 2))
+    E50b = Es * Emax / (Emax + Es)
+    t10 = CU["A"] * (1 - math.exp(-CU["b_prime"] * eps / E50b))  # eq 7
+    tn = {n: 100 * special.betainc(a, b, t10 / 100) for n, (a, b) in CU_BETA.items()}  # eq 10
+    lam = math.log(tn[4] / tn[75]) / math.log(75 / 4)  # eq 12
+    x_fine = 2.0**-10
+    return E50, t10, {1.0: 100.0, 0.5: tn[2], 0.25: tn[4], x_fine: tn[75] * (x_fine * 75) ** lam}
+
+
 def test_case_file_with_progeny(tmp_path):
-    """`millsim run single_particle` writes a self-describing case: per-particle records, events,
-    the product size distribution with fines, mass conserved in every broken particle."""
+    """`millsim run single_particle` writes a self-describing case: SI units by name, the model
+    product against eqs 1-3, 7, 10-12 coded here, t10' of each primary breakage against eq 8, the
+    fraction broken within the 99 % interval of eq 1, mass conserved in every broken particle."""
     from millsim.cli import main
     from millsim.io import case_parameters, read_case
 
@@ -108,19 +141,56 @@ def test_case_file_with_progeny(tmp_path):
     assert rc == 0
     ds = read_case(out)
     assert ds.attrs["scene"] == "single_particle"
-    assert case_parameters(ds)["n_particles"] == 6
-    assert ds.attrs["dt"] > 0 and ds.attrs["wall_time_s"] > 0 and ds.attrs["gravity"] == "off"
-    for name in ("particle_broken", "particle_absorbed_energy", "particle_t10_primary",
-                 "particle_product_t10", "event_t10", "event_fines_mass", "product_passing",
-                 "product_passing_model", "product_t10", "broken_fraction_ci_lo"):
-        assert name in ds, name
-    assert int(ds["n_broken"]) >= 4
+    assert case_parameters(ds)["n_particles"] == 6 and ds.attrs["gravity"] == "off"
+    units = {"particle_broken": "1", "particle_absorbed_energy": "J kg-1",
+             "particle_t10_primary": "%", "particle_product_t10": "%", "event_t10": "%",
+             "event_fines_mass": "kg", "product_passing": "%", "product_passing_model": "%",
+             "product_t10": "%", "broken_fraction_ci_lo": "1", "specific_energy": "J kg-1",
+             "impact_speed": "m s-1", "fines_mass": "kg", "sieve": "1"}
+    assert {name: ds[name].attrs["units"] for name in units} == units
+
+    d = 0.01
+    E50, t10, passing_model = _product_model(d, 2.0)
+    assert float(ds["specific_energy"]) == pytest.approx(2 * E50 / CU_SHARE, rel=1e-9)
+    # v = sqrt(2 Ek/m) for the set specific energy Ek/m
+    assert float(ds["impact_speed"]) == pytest.approx(math.sqrt(2 * 2 * E50 / CU_SHARE), rel=1e-9)
+    # the step resolves the impact of the whole particle: at least 50 steps in its Hertz contact
+    # time on steel, t_c = 2.9433 (15 m / (16 E* sqrt(R)))^(2/5) v^(-1/5)
+    m = 2930 * math.pi / 6 * d**3
+    e_star = 1 / ((1 - 0.25**2) / 52e9 + (1 - 0.3**2) / 210e9)
+    v = float(ds["impact_speed"])
+    t_c = 2.9433 * (15 * m / (16 * e_star * math.sqrt(d / 2))) ** 0.4 * v**-0.2
+    assert 0 < ds.attrs["dt"] <= t_c / 50 and ds.attrs["wall_time_s"] > 0
+
+    assert float(ds["product_t10_model"]) == pytest.approx(t10, rel=1e-9)
+    sieve = ds["sieve"].values
+    for x, expected in passing_model.items():
+        k = int(np.argmin(np.abs(sieve - x)))
+        assert sieve[k] == pytest.approx(x, rel=1e-12)
+        assert float(ds["product_passing_model"][k]) == pytest.approx(expected, rel=1e-6), x
+    # eq 9: t10' at breakage exactly at the fracture energy
+    assert float(ds["t10_primary_model"]) == pytest.approx(CU["A"] * (1 - math.exp(-CU["b_prime"])),
+                                                           rel=1e-12)
+    # eq 8 per particle at its own ratio absorbed / fracture energy, on the family grid (0.1 %)
+    broken = ds["particle_broken"].values == 1
+    ratio = (ds["particle_absorbed_energy"].values[broken]
+             / ds["particle_fracture_energy_at_break"].values[broken])
+    assert (ratio >= 1).all()  # first reach: it breaks once its absorbed energy reaches E
+    eq8 = CU["A"] * (1 - np.exp(-CU["b_prime"] * ratio))
+    assert np.abs(ds["particle_t10_primary"].values[broken] - eq8).max() <= 0.05 + 1e-9
+
+    # fraction broken: eq 1 at 2 E50 with Emax = 4 E50 is Phi(ln 4 / sigma) = 0.9586
+    k = int(ds["n_broken"])
+    p = stats.norm.cdf(math.log(4) / CU["sigma"])
+    lo, hi = stats.beta.ppf(0.005, k, 7 - k) if k else 0.0, stats.beta.ppf(0.995, k + 1, 6 - k) if k < 6 else 1.0
+    assert lo <= p <= hi, (k, p)
+    assert float(ds["broken_fraction_ci_lo"]) == pytest.approx(
+        stats.beta.ppf(0.025, k, 7 - k) if k else 0.0, abs=1e-12)
+
     assert float(ds["mass_balance_error"]) < 1e-12
     passing = ds["product_passing"].values
     assert passing[0] == pytest.approx(100.0) and np.all(np.diff(passing) <= 1e-9)
     assert passing[-1] > 0  # the fines extension reaches below the smallest sphere
-    broken = ds["particle_broken"].values == 1
-    assert np.all(ds["particle_t10_primary"].values[broken] > 0)
 
 
 def test_bad_input_is_refused():
@@ -131,10 +201,18 @@ def test_bad_input_is_refused():
 
 
 def test_binomial_intervals_and_pass_rule():
+    """Default 95 % intervals against closed forms: Clopper-Pearson upper bound at k = 0 is
+    1 - (alpha/2)^(1/n); Wilson's score interval (p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) /
+    (1 + z^2/n) with z = 1.959964."""
     lo, hi = tv.binomial_interval(0, 50)
-    assert lo == 0 and 0 < hi < 0.1
-    lo, hi = tv.binomial_interval(25, 50, method="wilson")
-    assert lo < 0.5 < hi
+    assert lo == 0 and float(hi) == pytest.approx(1 - 0.025 ** (1 / 50), rel=1e-9)  # 0.0711
+    lo, hi = tv.binomial_interval(50, 50)
+    assert float(lo) == pytest.approx(0.025 ** (1 / 50), rel=1e-9) and hi == 1
+    z, n, p = 1.959963984540054, 50, 0.3
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    lo, hi = tv.binomial_interval(15, 50, method="wilson")
+    assert (float(lo), float(hi)) == pytest.approx((centre - half, centre + half), rel=1e-9)
     assert tv.pass_rule([1, 1, 1, 1, 1, 1, 1, 1, 1, 0]) == (0.9, True)
     assert tv.pass_rule([1, 0, np.nan]) == (0.5, False)
 

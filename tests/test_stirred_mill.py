@@ -11,6 +11,7 @@ import textwrap
 import numpy as np
 import pandas as pd
 import pytest
+from scipy import stats
 from scipy.integrate import solve_ivp
 
 from millsim.analysis.stirred_mill import (
@@ -108,32 +109,58 @@ def tiny_case(tmp_path_factory):
 
 
 def test_tiny_scene_writes_the_outputs(tiny_case):
+    """The outputs with their SI units by name, and their values against their definitions."""
     ds = tiny_case
-    for name in ("agitator_torque", "agitator_power", "net_power", "net_power_ci",
-                 "steady_state_start", "typology_fraction", "dissipation", "energy_balance_error",
-                 "collision_frequency_relative", "cg_speed", "cg_spin"):
-        assert name in ds and "units" in ds[name].attrs
+    units = {"agitator_torque": "N m", "agitator_power": "W", "net_power": "W", "net_power_ci": "W",
+             "mean_torque": "N m", "steady_state_start": "s", "typology_fraction": "1",
+             "typology_energy": "J", "dissipation": "J", "energy_in": "J",
+             "energy_balance_error": "1", "collision_frequency_relative": "%", "cg_speed": "m s-1",
+             "cg_spin": "rad s-1", "angular_velocity": "rad s-1", "time": "s"}
+    assert {name: ds[name].attrs["units"] for name in units} == units
     assert ds.attrs["scene"] == "stirred_mill" and json.loads(ds.attrs["parameters_json"])["eta"] == 0.05
-    assert float(ds["net_power"]) > 0 and np.isfinite(float(ds["net_power_ci"]))
-    # power = torque x angular velocity, record by record: the power is the engine's work, the
-    # torque its angular impulse; both are taken at the same contact point, so they agree to
-    # rounding
-    np.testing.assert_allclose(ds["agitator_power"], ds["agitator_torque"] * float(ds["angular_velocity"]),
+    # the agitator turns at rpm * 2 pi / 60; power = torque x that angular velocity, record by
+    # record (power from the engine's work, torque from its angular impulse, same contact points)
+    omega = TINY["rpm"] * 2 * PI / 60
+    assert float(ds["angular_velocity"]) == pytest.approx(omega, rel=1e-12)
+    np.testing.assert_allclose(ds["agitator_power"], ds["agitator_torque"] * omega,
                                rtol=1e-6, atol=1e-9 * float(abs(ds["agitator_power"]).max()))
+    # net power: mean of the records after the statistics start, with a Student-t 95 % half-width
+    # from 8 block means (ci_blocks default), coded here
+    t = ds["time"].values
+    kept = ds["agitator_power"].values[t > float(ds["statistics_start"]) + 1e-12]
+    means = np.array([b.mean() for b in np.array_split(kept, 8)])
+    half = stats.t.ppf(0.975, 7) * means.std(ddof=1) / math.sqrt(8)
+    assert float(ds["net_power"]) == pytest.approx(kept.mean(), rel=1e-12)
+    assert float(ds["net_power_ci"]) == pytest.approx(half, rel=1e-9)
+    assert float(ds["net_power"]) > 0  # the agitator drives the charge
     assert list(ds["typology"].values) == ["impact", "torsion", "shearing", "rolling"]
-    assert float(ds["typology_fraction"].sum()) == pytest.approx(1.0)
-    assert float(ds["typology_fraction"].sel(typology="torsion")) == 0.0
-    assert float(ds["collision_frequency_relative"].sum()) == pytest.approx(100.0)
+    # typology from the audit terms (docs/stirred_mill.md): impact = normal damping + normal
+    # lubrication, shearing = tangential translation + tangential lubrication, rolling = rotation
     d = ds["dissipation"].to_series()
-    assert d["lubrication_normal"] > 0 and d["lubrication_tangential"] > 0
+    expected = [d["contact_normal_damping"] + d["lubrication_normal"], 0.0,
+                d["contact_tangential_translation"] + d["lubrication_tangential"],
+                d["contact_tangential_rotation"]]
+    np.testing.assert_allclose(ds["typology_energy"], expected, rtol=1e-12)
+    np.testing.assert_allclose(ds["typology_fraction"], np.array(expected) / sum(expected), rtol=1e-12)
+    assert float(ds["collision_frequency_relative"].sum()) == pytest.approx(100.0)
+    assert d["lubrication_normal"] > 0 and d["lubrication_tangential"] > 0  # dissipation
 
 
 def test_tiny_stirred_box_energy_balance_closes(tiny_case):
     """work in = d(kinetic + potential + elastic) + dissipation, within 2 % (steady window and run)."""
     ds = tiny_case
-    assert abs(float(ds["energy_balance_error"])) < 0.02
+    # the residual from its terms: agitator work - (kinetic + potential + normal spring energy
+    # changes + audited dissipation); the tangential spring energy is inside the audit terms
+    work = float(ds["energy_in"])
+    changes = sum(float(ds[k]) for k in ("delta_kinetic", "delta_potential", "delta_elastic_normal"))
+    residual = work - changes - float(ds["dissipation"].sum())
+    assert float(ds["energy_balance_residual"]) == pytest.approx(residual, rel=1e-9, abs=1e-12 * work)
+    assert float(ds["energy_balance_error"]) == pytest.approx(residual / work, rel=1e-9, abs=1e-12)
+    assert abs(residual / work) < 0.02
     assert abs(float(ds["energy_balance_error_run"])) < 0.02
-    assert float(ds["energy_in"]) > 0
+    assert work > 0  # the agitator puts energy in
+    assert {k: ds[k].attrs["units"] for k in ("energy_in", "delta_kinetic", "energy_balance_residual")} \
+        == {"energy_in": "J", "delta_kinetic": "J", "energy_balance_residual": "J"}
 
 
 # ------------------------------------------------------------------------------------------------

@@ -1,5 +1,6 @@
 """The Snakemake pipeline through its API: a small sweep, caching of finished cases, bad config."""
 
+import math
 import os
 import re
 import shutil
@@ -10,7 +11,7 @@ import yaml
 from snakemake import api
 from snakemake.settings import types as settings
 
-from millsim.io import read_case
+from millsim.io import case_parameters, read_case
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -82,6 +83,14 @@ def test_sweep_runs_once_and_reruns_only_the_changed_case(workdir):
     assert expected <= written
     assert all((workdir / f).stat().st_size > 0 for f in written)
     assert speeds(workdir) == [0.5, 1.0]
+    # a case holds what its config asked for: the swept and fixed values, the steps that its
+    # duration implies, and the critical speed of its drum, n_c = sqrt(g / (R - r)) / (2 pi)
+    for speed in (0.5, 1.0):
+        ds = read_case(workdir / case("ballmill", speed))
+        params = case_parameters(ds)
+        assert params["n_over_nc"] == speed and params["drum_radius"] == 0.02 and params["seed"] == 3
+        assert ds.attrs["steps"] == round(0.02 / ds.attrs["dt"])
+        assert float(ds["n_c"]) == pytest.approx(math.sqrt(9.81 / (0.02 - 0.002)) / (2 * math.pi), rel=1e-12)
 
     assert snakemake(workdir, tiny_config([0.5, 1.0])) == set()
 

@@ -1,0 +1,269 @@
+"""Drive power of the mills: what a rotating body or wall puts into the particles.
+
+The engine books a kinematic body's work (``body_work``) and angular impulse (``body_impulse``,
+the load the body receives), and the same for walls (``wall_work``, ``wall_impulse``). Checked
+against expectations that do not come from that bookkeeping:
+
+- power = drive torque x angular velocity, with the angular velocity computed here from the
+  scene's inputs (rpm * 2 pi / 60; n/n_c * 2 pi n_c with n_c = sqrt(g / R_eff) / (2 pi));
+- the angular momentum the driven beads gain (from their own masses, radii and velocities);
+- the energy balance: drive work = change of kinetic energy + dissipation (the engine's audit);
+- the sign: a drive that drags particles along puts energy in.
+
+Engine runs use the stirred mill's wet periodic variant and the ball mill's force-chain variant,
+which tests/test_stirred_mill.py and tests/test_ballmill.py compile anyway: no kernel of its own.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from millsim.engine.kinematics import CYLINDER_OUTER
+from millsim.scenes.base import RunContext, get_scene
+
+G = 9.81
+X_AXIS = np.array([1.0, 0.0, 0.0])
+
+# The stirred mill's wet, axially periodic variant (scenes/stirred_mill.py, physics_spec(True, True)).
+WET_PERIODIC = PhysicsSpec(dim=3, contact_law="linear_history", gravity=True, walls=True,
+                           bodies=True, periodic=True, lubrication=True, energy_audit=True)
+K_N = 1500.0  # N/m: the stirred mill's soft beads (LIGGGHTS hooke k_n of 5 MPa, 2 mm beads)
+BEAD_DENSITY = 6000.0
+ETA = 0.01  # Pa s
+
+
+def make_sim(x, radius, material, *, dt_factor=1.0, **kw):
+    """The one place a Simulation is built here: wet periodic box along x, no gravity."""
+    table = MaterialTable([Material("bead", BEAD_DENSITY), Material("steel", 7800.0)],
+                          {"*": Interaction(restitution=0.5, friction=0.3, normal_stiffness=K_N)},
+                          "linear_history")
+    sim = Simulation(WET_PERIODIC, table, x=x, radius=radius, material=material, gravity=(0, 0, 0),
+                     box_lo=(-0.01, 0, 0), box_len=(0.02, 0, 0),
+                     fluid=dict(eta=ETA, h_min=0.001, h_max=0.05), **kw)
+    sim.set_time_step(sim.dt_report.recommended * dt_factor)
+    return sim
+
+
+def run_scene(name, **overrides):
+    scene = get_scene(name)
+    return scene.run(scene.resolve(overrides), RunContext())
+
+
+def stirred_mill_sim(**overrides):
+    """The stirred mill scene's Simulation, before any step (scene builder)."""
+    from millsim.scenes.stirred_mill import build
+
+    return build(get_scene("stirred_mill").resolve(overrides))[0]
+
+
+# ------------------------------------------------------------------------------------------------
+# independent observables of the free particles (masses from the engine, the rest from the state)
+# ------------------------------------------------------------------------------------------------
+
+def _free_state(sim):
+    p = sim.particles
+    free = sim.free
+    m = sim.masses()[free]
+    inertia = 0.4 * m * p.radius[free] ** 2  # solid spheres
+    return m, inertia, p.x[free], p.v[free], p.w[free]
+
+
+def angular_momentum_x(sim):
+    """Angular momentum of the free spheres about the x axis through the origin."""
+    m, inertia, x, v, w = _free_state(sim)
+    return float((m * (x[:, 1] * v[:, 2] - x[:, 2] * v[:, 1])).sum() + (inertia * w[:, 0]).sum())
+
+
+def kinetic_energy(sim):
+    m, inertia, _, v, w = _free_state(sim)
+    return float(0.5 * (m * (v**2).sum(1)).sum() + 0.5 * (inertia * (w**2).sum(1)).sum())
+
+
+# ------------------------------------------------------------------------------------------------
+# (1) a paddle and a shaft drive one bead through contact friction and the lubrication film
+# ------------------------------------------------------------------------------------------------
+
+PADDLE_RATE = 100.0  # rad/s about +x
+SHAFT_RATE = 300.0  # rad/s about +x
+A, RB = 1.0e-3, 0.9e-3  # paddle sphere and bead radii
+
+
+def paddle_or_shaft(kind, dt_factor):
+    """(sim, rate, work(sim), drive angular impulse(sim)) of one driven bead.
+
+    paddle: a rotate body of two spheres at radius 8-10 mm sweeping (+y at z < 0) into a bead
+    0.2 mm ahead, hitting it obliquely (centre 0.8 mm lower). shaft: a cylinder_outer wall of
+    3.6 mm turning under a bead thrown at it radially at 0.5 m/s, 0.4 mm off the vertical.
+    Both start beyond the lubrication range (h_max = 0.09 mm) and end beyond it (checked), so no
+    force acts at either end and the balances below close without end corrections.
+    """
+    if kind == "paddle":
+        R = 8e-3
+        sim = make_sim([[0, 0, -R], [0, 0, -R - 2 * A], [0, A + RB + 0.2e-3, -R - 0.8 * A]],
+                       [A, A, RB], ["steel", "steel", "bead"], body=[0, 0, -1],
+                       bodies=[dict(kind="rotate", center=(0, 0, 0), axis=X_AXIS, rate=PADDLE_RATE)],
+                       dt_factor=dt_factor)
+        return (sim, PADDLE_RATE, lambda s: float(s.body_work[0]),
+                lambda s: -float(s.body_impulse[0, 3]))
+    Rs = 3.6e-3
+    sim = make_sim([[0, 0.4e-3, Rs + RB + 0.3e-3]], [RB], ["bead"], v=[[0, 0, -0.5]],
+                   walls=[dict(kind="cylinder_outer", point=(0, 0, 0), axis=X_AXIS, radius=Rs,
+                               omega=SHAFT_RATE, material="steel")],
+                   dt_factor=dt_factor)
+    return sim, SHAFT_RATE, lambda s: float(s.wall_work[0]), lambda s: -float(s.wall_impulse[0, 3])
+
+
+def drive_books(kind, dt_factor):
+    sim, rate, work, impulse = paddle_or_shaft(kind, dt_factor)
+    L0, K0 = angular_momentum_x(sim), kinetic_energy(sim)
+    steps = int(round((2.5e-3 if kind == "paddle" else 3e-3) / sim.dt))
+    sim.run(steps, chunk=steps, threads=1)
+    p = sim.particles
+    bead = np.flatnonzero(sim.free)[0]
+    if kind == "paddle":
+        gaps = np.linalg.norm(p.x[:2] - p.x[bead], axis=1) - (A + RB)
+    else:
+        gaps = np.array([math.hypot(p.x[bead, 1], p.x[bead, 2]) - 3.6e-3 - RB])
+    assert gaps.min() > 0.05 * 2 * RB  # out of the lubrication range: nothing acts at the end
+    return dict(rate=rate, work=work(sim), impulse=impulse(sim), dL=angular_momentum_x(sim) - L0,
+                dK=kinetic_energy(sim) - K0, dissipated=sum(sim.energy_audit().values()))
+
+
+@pytest.mark.parametrize("kind", ["paddle", "shaft"])
+def test_drive_work_is_torque_times_rate_and_closes_the_energy_balance(kind):
+    """A rotate body (paddle) and a rotating cylinder_outer wall (shaft) each drag a bead through
+    contact friction and lubrication, at the recommended step and at half of it.
+
+    - work = (drive angular impulse) x rate: the work is booked from the same loads as the
+      impulse, so they agree to rounding (rtol 1e-9);
+    - drive angular impulse = angular momentum the bead gained (about the x axis, from its own
+      mass, radius and velocities). Contact torques close exactly (lever arms r - xi/2);
+      lubrication pair torques close about the surfaces, not the centres, which leaks
+      (h / (a_i + a_j)) of the tangential lubrication impulse (h <= h_max = 0.05 d): measured
+      2e-6 of the impulse, allowed 1e-4;
+    - the work is positive (the drive puts energy in) and equals the bead's kinetic energy change
+      plus the audited dissipation: Verlet and the trapezoidal audit are second order, so the
+      residual (measured 2e-4 and 6e-4 of the work at ~50 steps per contact) must stay below
+      2e-3 and shrink by at least 2.5x when the step is halved (4x expected).
+    """
+    residuals = []
+    for dt_factor in (1.0, 0.5):
+        b = drive_books(kind, dt_factor)
+        assert b["work"] > 0, "the drive must put energy into the bead"
+        assert b["work"] == pytest.approx(b["impulse"] * b["rate"], rel=1e-9)
+        assert b["dL"] == pytest.approx(b["impulse"], rel=1e-4)
+        # a lossy load: friction, damping and the film take a good part of the work (25 % for
+        # the paddle, more than the work for the shaft, whose bead loses kinetic energy)
+        assert b["dissipated"] > 0.1 * b["work"]
+        residuals.append((b["work"] - b["dK"] - b["dissipated"]) / b["work"])
+    assert abs(residuals[0]) < 2e-3, residuals
+    assert abs(residuals[1]) < abs(residuals[0]) / 2.5, residuals
+
+
+# ------------------------------------------------------------------------------------------------
+# (2) the stirred mill: agitator body and shaft wall turn at rpm * 2 pi / 60 and drive the charge
+# ------------------------------------------------------------------------------------------------
+
+STIRRED_TINY = dict(scale=0.3, slice=True, n_beads=250, eta=0.05, records_per_revolution=16,
+                    cg_cells=6, seed=3)
+
+
+def rad_per_s(rpm):
+    return rpm * 2.0 * math.pi / 60.0
+
+
+@pytest.mark.parametrize("rpm", [1500.0, 3000.0])
+def test_stirred_mill_agitator_and_shaft_turn_at_the_set_speed_and_drive(rpm):
+    """A quarter revolution of the tiny wet slice: the agitator spheres' measured rotation angle
+    over time and their speed |v| / rho equal rpm * 2 pi / 60 (two speeds: the conversion, not a
+    coincidence at one of them); the disks (rotate body) and the shaft (cylinder_outer wall)
+    each book work = drive torque x that angular velocity, and both put energy in."""
+    omega = rad_per_s(rpm)
+    sim = stirred_mill_sim(rpm=rpm, **STIRRED_TINY)
+    p = sim.particles
+    agitator = np.flatnonzero(p.body == 0)
+    phi0 = np.arctan2(p.x[agitator, 2], p.x[agitator, 1])
+    steps = int(round(0.25 * 60.0 / rpm / sim.dt))
+    sim.run(steps, chunk=steps)
+    x = sim.particles.x[agitator]
+    turned = np.angle(np.exp(1j * (np.arctan2(x[:, 2], x[:, 1]) - phi0)))  # wrapped to (-pi, pi]
+    np.testing.assert_allclose(turned / sim.time, omega, rtol=1e-9)
+    speed = np.linalg.norm(sim.particles.v[agitator], axis=1) / np.hypot(x[:, 1], x[:, 2])
+    np.testing.assert_allclose(speed, omega, rtol=1e-9)
+
+    # the disks: torque about +x the body supplies = minus the load it receives
+    disk_torque_impulse = -sim.body_impulse[0, 3]
+    assert sim.body_work[0] == pytest.approx(disk_torque_impulse * omega, rel=1e-9)
+    assert sim.body_work[0] > 0
+    # the shaft: the only cylinder_outer wall
+    (shaft,) = np.flatnonzero(sim.walls[:, 0] == CYLINDER_OUTER)
+    shaft_torque_impulse = -sim.wall_impulse[shaft, 3]
+    assert sim.wall_work[shaft] == pytest.approx(shaft_torque_impulse * omega, rel=1e-9)
+    assert sim.wall_work[shaft] > 0, "the turning shaft must drag the beads along, not brake them"
+
+
+def test_stirred_mill_net_power_is_the_agitator_work_rate():
+    """The scene's power outputs against their definition in engine quantities (1.5 revolutions
+    at 1500 rpm). There is no idle (no-load) power to subtract in the model: the agitator's
+    "net power" is the whole work rate of disks + shaft on the charge. So:
+
+    - every record: agitator_power = agitator_torque x rpm * 2 pi / 60 (rtol 1e-9);
+    - net_power = mean of the records after statistics_start = mean_torque x omega;
+    - statistics_start is the end of the transient here (steady state detected at once), so
+      net_power x (t_end - statistics_start) = energy_in, the agitator work over that window
+      read from the engine's work counters (rounding only);
+    - the agitator drives the charge: net_power > 0.
+    """
+    rpm = 1500.0
+    omega = rad_per_s(rpm)
+    ds, _ = run_scene("stirred_mill", rpm=rpm, revolutions=1.5, transient_revolutions=0.75,
+                      **STIRRED_TINY)
+    np.testing.assert_allclose(ds["agitator_power"], ds["agitator_torque"] * omega, rtol=1e-9,
+                               atol=1e-12 * float(abs(ds["agitator_power"]).max()))
+    t = ds["time"].values
+    start = float(ds["statistics_start"])
+    after = t > start + 1e-12
+    net = float(ds["net_power"])
+    assert net == pytest.approx(float(ds["agitator_power"].values[after].mean()), rel=1e-12)
+    assert float(ds["mean_torque"]) * omega == pytest.approx(net, rel=1e-9)
+    record = t[1] - t[0]
+    assert int(ds["steady_state_detected"]) == 1
+    assert start == pytest.approx(0.75 * 60.0 / rpm, abs=0.5 * record)
+    assert net * (t[-1] - start) == pytest.approx(float(ds["energy_in"]), rel=1e-9)
+    assert net > 0
+    assert ds["net_power"].attrs["units"] == "W" and ds["agitator_torque"].attrs["units"] == "N m"
+
+
+# ------------------------------------------------------------------------------------------------
+# (3) the ball mill: drive power = drive torque x angular velocity from n / n_c
+# ------------------------------------------------------------------------------------------------
+
+def critical_speed(drum_radius, grain_radius):
+    """n_c [rev/s] at which a grain touching the wall (centre at R_eff) feels zero normal force
+    at the top: omega^2 R_eff = g (ballmill.md; seed 000)."""
+    return math.sqrt(G / (drum_radius - grain_radius)) / (2.0 * math.pi)
+
+
+@pytest.mark.parametrize("n_over_nc", [0.6, 1.3])
+def test_ballmill_drive_power_is_torque_times_the_drum_rate(n_over_nc):
+    """Tiny drum (2 cm, 2 mm grains, no fragmentation), 0.04 s: n_c from the formula above, and
+    each record's drive_power = drive_torque x (-omega), omega = 2 pi n/n_c n_c (the drum turns
+    clockwise, rate -omega about +z). Spinning the charge up from rest takes work: the drive's
+    total work over the run is positive."""
+    drum, grain, duration = 0.02, 0.002, 0.04
+    ds, info = run_scene("ballmill2d", n_over_nc=n_over_nc, drum_radius=drum, grain_radius=grain,
+                         filling=0.3, duration=duration, transient=0.01, record_interval=0.005,
+                         fragmentation=False, seed=3)
+    n_c = critical_speed(drum, grain)
+    assert float(ds["n_c"]) == pytest.approx(n_c, rel=1e-12)
+    omega = 2.0 * math.pi * n_over_nc * n_c
+    power, torque = ds["drive_power"].values, ds["drive_torque"].values
+    assert np.abs(torque).max() > 0  # the charge touched the drum
+    np.testing.assert_allclose(power, -omega * torque, rtol=1e-9, atol=1e-12 * np.abs(power).max())
+    span = np.diff(np.r_[0.0, ds["time"].values])
+    assert float((power * span).sum()) > 0
+    assert info.steps == round(duration / info.dt)
+    assert ds["drive_power"].attrs["units"] == "W" and ds["drive_torque"].attrs["units"] == "N m"
+    assert ds["n_c"].attrs["units"] == "s-1"
