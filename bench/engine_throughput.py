@@ -39,7 +39,7 @@ values = get_scene("packing").resolve(json.loads(sys.argv[1]))
 steps = int(sys.argv[2])
 sim = packing.build(values)
 if values["container"] == "drum":
-    sim.walls[0, 8] = values["drum_omega"]
+    sim.set_wall(0, omega=values["drum_omega"])
 sim.set_time_step(values["dt"])
 sim.run(10, chunk=10)
 start_s = time.perf_counter() - t0

@@ -37,7 +37,8 @@ STATE = HERE / "out" / "millsim_box_state.csv"
 RUN = r"""
 import json, sys
 import numpy as np
-from millsim.engine import PhysicsSpec, Simulation
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.models import Lubrication, TavaresModel
 from millsim.scenes import packing
 from millsim.scenes.base import get_scene
 
@@ -47,24 +48,21 @@ base = packing.build(values)
 if not state:
     base.run(values["settle_steps"], chunk=5000)
 p = base.particles
-extra = {}
+models = {}
 spec = base.spec
+# every fracture energy infinite (the model's default), viscosity 0: compiled in, doing nothing
 if variant == "inactive":
-    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, fracture="tavares",
-                       lubrication=True, energy_audit=True)
-    extra = dict(breakage={"grain": (5.0, 0.0)}, fluid=dict(eta=0.0))
+    spec = PhysicsSpec(dim=3, walls=True, energy_audit=True)
+    models = dict(breakage=TavaresModel({"grain": (5.0, 0.0)}), fluid=Lubrication(eta=0.0))
 elif variant == "breakage":
-    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, fracture="tavares")
-    extra = dict(breakage={"grain": (5.0, 0.0)})
+    models = dict(breakage=TavaresModel({"grain": (5.0, 0.0)}))
 elif variant == "lubrication":
-    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, lubrication=True)
-    extra = dict(fluid=dict(eta=0.0))
+    models = dict(fluid=Lubrication(eta=0.0))
 elif variant == "audit":
-    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, energy_audit=True)
-walls = [dict(kind="plane", point=row[1:4], normal=row[4:7], material="grain") for row in base.walls]
+    spec = PhysicsSpec(dim=3, walls=True, energy_audit=True)
 sim = Simulation(spec, base.table, x=p.x.copy(), radius=p.radius.copy(), material="grain",
-                 v=p.v.copy(), w=p.w.copy(), walls=walls, skin=base.skin, dt=values["dt"],
-                 impact_speed=1.0, **extra)
+                 v=p.v.copy(), w=p.w.copy(), walls=packing._walls(values), skin=base.skin,
+                 step=StepPolicy(dt=values["dt"], impact_speed=1.0), **models)
 sim.run(50, chunk=50)  # compile (or load) and warm up
 rates = []
 for _ in range(repeats):

@@ -50,9 +50,12 @@ PHYSICS = ("ballmill2d", "hertz_tavares", "beads_lubrication")
 # ---- builders (run in the child) -----------------------------------------------------------------
 
 def build_ballmill2d(n, dt_factor, eta, rpm):
+    from dataclasses import replace
+
     import numpy as np
 
-    from millsim.engine import Simulation
+    from millsim.engine import Guards, Simulation
+    from millsim.models import WeibullModel
     from millsim.scenes import ballmill2d as bm
     from millsim.scenes.base import get_scene
 
@@ -60,8 +63,9 @@ def build_ballmill2d(n, dt_factor, eta, rpm):
     drum = math.sqrt(n * 2 * math.sqrt(3) * r * r / (0.4 * math.pi)) + 5e-3
     values = get_scene("ballmill2d").resolve(dict(drum_radius=drum, n_grains=1, grain_radius=r,
                                                   n_over_nc=0.75, weibull_c=1e-30))
-    scene, _, _ = bm.build(values)
-    p, b = scene.particles, scene.bodies[0]
+    # the scene's own simulation (one grain) gives the drum wall, the spec, the table and the step
+    scene, _, omega = bm.build(values)
+    p = scene.particles
     wall = p.body >= 0
     # dense hexagonal bed at the bottom of the drum, inside the lifters
     a = 2 * r * 0.999
@@ -77,18 +81,19 @@ def build_ballmill2d(n, dt_factor, eta, rpm):
     radius = np.concatenate([p.radius[wall], np.full(len(xy), r)])
     body = np.concatenate([p.body[wall], np.full(len(xy), -1)])
     sim = Simulation(scene.spec, scene.table, x=x, radius=radius, material="grain", body=body,
-                     bodies=[dict(kind="rotate", center=b[1:4], axis=b[4:7], rate=b[7])],
+                     bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(0, 0, 1), rate=-omega)],
                      gravity=scene.gravity, thickness=scene.thickness, skin=scene.skin,
-                     impact_speed=scene.impact_speed, max_overlap=0.5,
-                     smallest_radius=scene.smallest_radius, fracture_c=1e-30)
-    sim.set_time_step(scene.dt * dt_factor)
+                     step=replace(scene.policy, dt=scene.dt * dt_factor),
+                     guards=Guards(max_overlap=0.5),
+                     breakage=WeibullModel(values["weibull_c"]))  # c = 1e-30: nothing breaks
     return sim, {"free_particles": len(xy), "drum_radius": drum}
 
 
 def build_hertz_tavares(n, dt_factor, eta, rpm):
     import numpy as np
 
-    from millsim.engine import Interaction, Material, MaterialTable, Simulation
+    from millsim.engine import Simulation, StepPolicy
+    from millsim.models import Interaction, Material, MaterialTable, TavaresModel
     from millsim.scenes import bed_impact, packing
     from millsim.scenes.base import get_scene
 
@@ -119,8 +124,9 @@ def build_hertz_tavares(n, dt_factor, eta, rpm):
              dict(kind="plane", point=(0, 0, 0), normal=(0, 1, 0), material="grain"),
              dict(kind="plane", point=(0, ly, 0), normal=(0, -1, 0), material="grain")]
     sim = Simulation(bed_impact.SPEC, table, x=x, radius=np.full(len(x), r), material="grain",
-                     v=v, w=w, walls=walls, skin=values["skin"], dt=values["dt"] * dt_factor,
-                     impact_speed=1.0, breakage={"grain": (5.0, 0.0)})
+                     v=v, w=w, walls=walls, skin=values["skin"],
+                     step=StepPolicy(dt=values["dt"] * dt_factor, impact_speed=1.0),
+                     breakage=TavaresModel({"grain": (5.0, 0.0)}))
     return sim, {"free_particles": len(x), "box": [lx, ly]}
 
 
@@ -164,12 +170,12 @@ def child(physics, n, steps, dt_factor, threads, eta, rpm):
     sim, info = BUILDERS[physics](n, dt_factor, eta, rpm)
     setup_s = time.perf_counter() - t0
 
-    def drop_fractures(s):  # nothing is meant to break; keep the run going if something does
-        s.pop_fractures()
+    def drop_events(s):  # nothing is meant to break; keep the run going if something does
+        s.pop_events()
 
-    sim.run(50, chunk=50, threads=threads, on_fracture=drop_fractures)
+    sim.run(50, chunk=50, threads=threads, on_events=drop_events)
     loop0, rebuilds0 = sim.wall_seconds, int(sim.counters[0])
-    sim.run(steps, chunk=steps, threads=threads, on_fracture=drop_fractures)
+    sim.run(steps, chunk=steps, threads=threads, on_events=drop_events)
     loop_s = sim.wall_seconds - loop0
     i, _, _ = sim.contact_pairs()
     return dict(physics=physics, n=n, dt_factor=dt_factor, n_particles=sim.n_particles, **info,

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from millsim.breakage.weibull import (fracture_probability, rosin_rammler_cdf, rosin_rammler_radius,
-                                      split_disk)
-from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from millsim.analysis.rates import steady_rate
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.models import Interaction, Material, MaterialTable, WeibullModel
+from millsim.models.breakage.weibull import (fracture_probability, rosin_rammler_cdf,
+                                             rosin_rammler_radius, split_disk)
+from millsim.util.stats import steady_rate
 from millsim.scenes.base import RunContext, get_scene
 
 
@@ -44,21 +45,21 @@ def _colliding_pairs(count, speed, c, dt_factor=1.0, seed=5):
     table = MaterialTable([Material("g", 2000.0)], {"*": Interaction(
         friction=0.5, normal_stiffness=8e3, normal_damping_rate=800.0, tangential_damping_rate=3000.0)},
         "linear_hw")
-    spec = PhysicsSpec(dim=2, contact_law="linear_hw", gravity=False, fracture="weibull")
+    spec = PhysicsSpec(dim=2, gravity=False)
     x, v = [], []
     for k in range(count):
         base = np.array([0.02 * (k % 40), 0.02 * (k // 40)])
         x += [base + [-r - 1e-5, 0], base + [r + 1e-5, 0]]
         v += [[speed / 2, 0], [-speed / 2, 0]]
     sim = Simulation(spec, table, x=np.array(x), radius=np.full(2 * count, r), material="g",
-                     v=np.array(v), thickness=0.01, fracture_c=c, seed=seed, impact_speed=speed)
-    sim.set_time_step(sim.dt_report.recommended * dt_factor)
+                     v=np.array(v), thickness=0.01, breakage=WeibullModel(c, seed=seed),
+                     step=StepPolicy(dt_factor=dt_factor, impact_speed=speed))
     broken = []
 
     def collect(s):
-        broken.extend(s.pop_fractures())
+        broken.extend(s.pop_events())
 
-    sim.run(int(3e-3 / sim.dt), chunk=10**6, on_fracture=collect)
+    sim.run(int(3e-3 / sim.dt), chunk=10**6, on_events=collect)
     return broken, r
 
 
@@ -99,8 +100,8 @@ def test_mill_conserves_mass_with_dust_and_refill():
     duration, transient = 0.25, 0.05
     values = scene.resolve(dict(duration=duration, transient=transient, weibull_c=1e-8,
                                 sieve_radius=1.2e-3, record_interval=0.01, snapshot_interval=0.05))
-    ds, info = scene.run(values, RunContext())
-    assert info.steps == round(duration / info.dt)
+    ds, prov = scene.run(values, RunContext())
+    assert prov["steps"] == round(duration / prov["dt"])
     units = {"grains": "1", "fracture_events": "1", "dust_mass": "kg", "kinetic_energy": "J",
              "drive_torque": "N m", "drive_power": "W", "pressure": "Pa", "mean_drive_power": "W",
              "n_c": "s-1", "event_time": "s", "event_radius": "m", "event_force": "N",

@@ -9,9 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from millsim.breakage.replacement import TavaresReplacement
-from millsim.breakage.tavares import global_min_size, load_materials
-from millsim.engine import Simulation
+from millsim.engine import Guards, Simulation, StepPolicy
+from millsim.models import TavaresModel
+from millsim.models.breakage.replacement import TavaresReplacement
+from millsim.models.breakage.tavares import global_min_size, load_materials
 from millsim.scenes import bed_impact as bed
 from millsim.scenes.base import RunContext, get_scene
 
@@ -86,22 +87,32 @@ def test_mass_conserved_through_breakage_with_fines():
     rb = 0.044
     x_all = np.vstack([[0, 0, D + 1e-5 + rb], x])
     d_min = global_min_size(D)
+    # the scene's per-particle bookkeeping, as simulation tags the replacement hands on
+    tags = {"origin": np.arange(8) - 1, "generation": np.zeros(8, dtype=int),
+            "dummy": np.zeros(8, dtype=bool), "event_t10": np.zeros(8)}
     sim = Simulation(bed.SPEC, table, x=x_all, radius=np.r_[rb, np.full(7, D / 2)],
                      material=["steel"] + ["copper_ore"] * 7, v=[[0, 0, -1.5]] + [[0, 0, 0]] * 7,
                      walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
-                     breakage={"copper_ore": (ore.gamma, 0.0)}, smallest_radius=d_min / 2,
-                     impact_speed=1.5, max_overlap=2.0, v_max=1e3, skin=0.1 * D)
+                     breakage=TavaresModel({"copper_ore": (ore.gamma, 0.0)}),
+                     step=StepPolicy(impact_speed=1.5, smallest_radius=d_min / 2),
+                     guards=Guards(max_overlap=2.0, v_max=1e3), skin=0.1 * D, tags=tags)
     replace = TavaresReplacement({"copper_ore": ore}, d_min=d_min, seed=4, dummy_as="fines")
     replace.assign_fracture_energies(sim, np.arange(1, 8))
-    sim.particles.e_frac[1:] *= 0.05  # weak particles: breakage within a few microseconds
+    sim.breakage.e_frac[1:] *= 0.05  # weak particles: breakage within a few microseconds
     m0 = replace.resolved_mass(sim)
-    tracker = bed._Tracker(replace, ore, 8, values)
-    sim.run(6000, chunk=500, on_fracture=tracker)
+    tracker = bed._Tracker(replace, ore)
+    sim.run(6000, chunk=500, on_events=tracker)
     assert len(replace.events) >= 1 and replace.fines_mass > 0
     assert replace.resolved_mass(sim) + replace.fines_mass == pytest.approx(m0, rel=1e-12)
-    assert len(tracker.origin) == sim.n_particles
-    assert tracker.origin[0] == -1  # the ball stays particle 0
-    assert (tracker.origin[1:] >= 0).all() and (tracker.origin[1:] < 7).all()
+    origin = sim.tags["origin"]
+    assert len(origin) == sim.n_particles
+    assert origin[0] == -1  # the ball stays particle 0
+    assert (origin[1:] >= 0).all() and (origin[1:] < 7).all()
+    # generation 0 exactly for the bed particles still whole; one event row per breakage
+    gen = sim.tags["generation"]
+    assert gen[0] == 0 and (gen >= 0).all()
+    np.testing.assert_array_equal(gen[1:] == 0, sim.particles.radius[1:] == D / 2)
+    assert len(tracker.event_rows) == len(replace.events)
 
 
 # Seed 002 (Tavares et al. 2021) Table 4, copper ore: E_inf [J/kg] on the stress-vs-steel basis,

@@ -17,8 +17,9 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from millsim.engine.timestep import hertz_contact_time, linear_contact_time, rayleigh_time
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.models import Interaction, Material, MaterialTable
+from millsim.models.contact import hertz_contact_time, linear_contact_time, rayleigh_time
 
 G = 9.81
 # Unequal elastic constants (Poisson ratios far apart, so that a (1 - nu^2) or (2 - nu) taken from
@@ -32,29 +33,29 @@ POLYMER_D = Material("polymer_d", POLYMER.density, POLYMER.youngs_modulus, POLYM
 
 
 def make_sim(law, materials, interactions, x, radius, material, *, walls=(), gravity=None,
-             box=None, dt=None, **kw):
+             box=None, dt=None, impact_speed=1.0, **kw):
     """The one place where this file builds a Simulation (adapt it when the constructor changes).
 
     walls: (point, normal, material) of planes; gravity: vector (default none); box: periodic
-    cube edge (linear_history only). Each law runs in a variant other tests compile anyway:
-    hertz_mindlin in test_dynamics' rolling-friction one (gravity, walls and rolling friction
-    compiled in; a zero gravity vector and mu_r = 0 leave them out of a case, exactly),
-    linear_history in test_dynamics' periodic gas one, linear_hw (2D) in test_engine's one.
+    cube edge (linear_history only); dt: absolute time step (default: the recommended one).
+    Each law runs in a variant other tests compile anyway: hertz_mindlin in test_dynamics'
+    rolling-friction one (gravity, walls and rolling friction compiled in; a zero gravity vector
+    and mu_r = 0 leave them out of a case, exactly), linear_history in test_dynamics' periodic
+    gas one, linear_hw (2D) in test_engine's one.
     """
     if law == "hertz_mindlin":
-        spec = PhysicsSpec(dim=3, contact_law=law, rolling_friction=True, walls=True)
+        spec = PhysicsSpec(dim=3, rolling_friction=True, walls=True)
     elif law == "linear_history":
-        spec = PhysicsSpec(dim=3, contact_law=law, gravity=False, periodic=True)
+        spec = PhysicsSpec(dim=3, gravity=False, periodic=True)
     else:
-        spec = PhysicsSpec(dim=2, contact_law=law, gravity=False)
+        spec = PhysicsSpec(dim=2, gravity=False)
     table = MaterialTable(list(materials), dict(interactions), law)
-    extra = dict(box_lo=np.zeros(3), box_len=np.full(3, box)) if box is not None else {}
-    sim = Simulation(spec, table, x=x, radius=radius, material=material,
-                     walls=[dict(kind="plane", point=p, normal=n, material=m) for p, n, m in walls],
-                     gravity=(0.0, 0.0, 0.0) if gravity is None else gravity, **extra, **kw)
-    if dt is not None:
-        sim.set_time_step(dt)
-    return sim
+    if box is not None:
+        kw["box"] = (np.zeros(3), np.full(3, box))
+    return Simulation(spec, table, x=x, radius=radius, material=material,
+                      walls=[dict(kind="plane", point=p, normal=n, material=m) for p, n, m in walls],
+                      gravity=(0.0, 0.0, 0.0) if gravity is None else gravity,
+                      step=StepPolicy(dt=dt, impact_speed=impact_speed), **kw)
 
 
 # ---- independent reference formulas -------------------------------------------------------------
@@ -414,39 +415,46 @@ def test_sticking_tangential_force_is_mindlin_spring():
 
 def test_hertz_normal_force_unequal_radii_and_materials():
     """Static overlaps: F = 4/3 E* sqrt(R*) xi^3/2 with R* = r1 r2 / (r1 + r2) and E* of the two
-    materials computed here; sphere-plate with R* = r. Forces are read after one step from rest
-    (the positions it is evaluated at are the initial ones: zero velocity and acceleration).
-    Round-off only: rtol 1e-9."""
+    materials computed here; sphere-plate with R* = r. The forces are read after one step from
+    rest: the engine evaluates them at the positions after that step (the first drift moved them
+    by dt^2 a / 2, 3e-4 of the overlap here), so the overlaps are taken from those positions.
+    Elastic (e = 1): the particles move at dt a after the step, and a dashpot would add ~1 % of
+    the force. Round-off only: rtol 1e-9."""
     r1, r2 = 0.8e-3, 2.0e-3
     fractions = (1e-3, 1e-2, 5e-2)  # overlap / smaller radius
-    x, radius, material, expected = [], [], [], []
+    x, radius, material = [], [], []
     for k, f in enumerate(fractions):
         xi = f * r1
         z = 10 * (r1 + r2) * k
         x += [[0.0, 0.0, z], [r1 + r2 - xi, 0.0, z]]
         radius += [r1, r2]
         material += ["glass", "polymer"]
-        expected.append(4 / 3 * e_star(GLASS, POLYMER) * math.sqrt(r1 * r2 / (r1 + r2)) * xi**1.5)
     wall_x = -0.05
     for k, f in enumerate(fractions):
         xi = f * r2
         x.append([wall_x + r2 - xi, 0.0, 10 * (r1 + r2) * (len(fractions) + k)])
         radius.append(r2)
         material.append("polymer")
-        expected.append(4 / 3 * e_star(POLYMER, PLATE) * math.sqrt(r2) * xi**1.5)
     sim = make_sim("hertz_mindlin", [GLASS, POLYMER, PLATE],
-                   {"*": Interaction(restitution=0.5, friction=0.3)}, x=x, radius=radius,
+                   {"*": Interaction(restitution=1.0, friction=0.3)}, x=x, radius=radius,
                    material=material, walls=[((wall_x, 0, 0), (1, 0, 0), "plate")])
     sim.run(1, chunk=1)
-    force = sim.masses()[:, None] * sim.particles.acc
+    p = sim.particles
+    force = sim.masses()[:, None] * p.acc
     n = len(fractions)
     for k in range(n):
+        xi = r1 + r2 - np.linalg.norm(p.x[2 * k + 1] - p.x[2 * k])
+        assert xi == pytest.approx(fractions[k] * r1, rel=1e-3)  # the step moved them a little
+        expected = 4 / 3 * e_star(GLASS, POLYMER) * math.sqrt(r1 * r2 / (r1 + r2)) * xi**1.5
         # pair k: particle 2k+1 sits at +x of 2k; equal and opposite forces along x
-        assert force[2 * k + 1, 0] == pytest.approx(expected[k], rel=1e-9)
-        assert force[2 * k, 0] == pytest.approx(-expected[k], rel=1e-9)
-        assert abs(force[2 * k + 1, 1:]).max() < 1e-12 * expected[k]
+        assert force[2 * k + 1, 0] == pytest.approx(expected, rel=1e-9)
+        assert force[2 * k, 0] == pytest.approx(-expected, rel=1e-9)
+        assert abs(force[2 * k + 1, 1:]).max() < 1e-12 * expected
     for k in range(n):
-        assert force[2 * n + k, 0] == pytest.approx(expected[n + k], rel=1e-9)
+        xi = r2 - (p.x[2 * n + k, 0] - wall_x)
+        assert xi == pytest.approx(fractions[k] * r2, rel=1e-3)
+        expected = 4 / 3 * e_star(POLYMER, PLATE) * math.sqrt(r2) * xi**1.5
+        assert force[2 * n + k, 0] == pytest.approx(expected, rel=1e-9)
 
 
 # ---- linear laws: restitution and contact time with unequal masses -----------------------------

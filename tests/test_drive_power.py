@@ -1,7 +1,8 @@
 """Drive power of the mills: what a rotating body or wall puts into the particles.
 
-The engine books a kinematic body's work (``body_work``) and angular impulse (``body_impulse``,
-the load the body receives), and the same for walls (``wall_work``, ``wall_impulse``). Checked
+The engine books a kinematic body's work (``sim.work(body=b)``) and angular impulse
+(``sim.angular_impulse(body=b)``, the load the body receives), and the same for walls
+(``sim.work(wall=k)``, ``sim.angular_impulse(wall=k)``). Checked
 against expectations that do not come from that bookkeeping:
 
 - power = drive torque x angular velocity, with the angular velocity computed here from the
@@ -19,16 +20,18 @@ import math
 import numpy as np
 import pytest
 
-from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from millsim.engine.kinematics import CYLINDER_OUTER
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.engine.kinematics import CYLINDER_OUTER, W_KIND
+from millsim.models import Interaction, Lubrication, Material, MaterialTable
 from millsim.scenes.base import RunContext, get_scene
 
 G = 9.81
 X_AXIS = np.array([1.0, 0.0, 0.0])
 
-# The stirred mill's wet, axially periodic variant (scenes/stirred_mill.py, physics_spec(True, True)).
-WET_PERIODIC = PhysicsSpec(dim=3, contact_law="linear_history", gravity=True, walls=True,
-                           bodies=True, periodic=True, lubrication=True, energy_audit=True)
+# The stirred mill's axially periodic variant (scenes/stirred_mill.py, physics_spec(True)); with
+# the linear_history table and a Lubrication fluid it is the scene's wet loop.
+WET_PERIODIC = PhysicsSpec(dim=3, gravity=True, walls=True, bodies=True, periodic=True,
+                           energy_audit=True)
 K_N = 1500.0  # N/m: the stirred mill's soft beads (LIGGGHTS hooke k_n of 5 MPa, 2 mm beads)
 BEAD_DENSITY = 6000.0
 ETA = 0.01  # Pa s
@@ -39,11 +42,9 @@ def make_sim(x, radius, material, *, dt_factor=1.0, **kw):
     table = MaterialTable([Material("bead", BEAD_DENSITY), Material("steel", 7800.0)],
                           {"*": Interaction(restitution=0.5, friction=0.3, normal_stiffness=K_N)},
                           "linear_history")
-    sim = Simulation(WET_PERIODIC, table, x=x, radius=radius, material=material, gravity=(0, 0, 0),
-                     box_lo=(-0.01, 0, 0), box_len=(0.02, 0, 0),
-                     fluid=dict(eta=ETA, h_min=0.001, h_max=0.05), **kw)
-    sim.set_time_step(sim.dt_report.recommended * dt_factor)
-    return sim
+    return Simulation(WET_PERIODIC, table, x=x, radius=radius, material=material, gravity=(0, 0, 0),
+                      box=((-0.01, 0, 0), (0.02, 0, 0)), step=StepPolicy(dt_factor=dt_factor),
+                      fluid=Lubrication(eta=ETA, h_min=0.001, h_max=0.05), **kw)
 
 
 def run_scene(name, **overrides):
@@ -105,14 +106,15 @@ def paddle_or_shaft(kind, dt_factor):
                        [A, A, RB], ["steel", "steel", "bead"], body=[0, 0, -1],
                        bodies=[dict(kind="rotate", center=(0, 0, 0), axis=X_AXIS, rate=PADDLE_RATE)],
                        dt_factor=dt_factor)
-        return (sim, PADDLE_RATE, lambda s: float(s.body_work[0]),
-                lambda s: -float(s.body_impulse[0, 3]))
+        return (sim, PADDLE_RATE, lambda s: s.work(body=0),
+                lambda s: -float(s.angular_impulse(body=0)[0]))
     Rs = 3.6e-3
     sim = make_sim([[0, 0.4e-3, Rs + RB + 0.3e-3]], [RB], ["bead"], v=[[0, 0, -0.5]],
                    walls=[dict(kind="cylinder_outer", point=(0, 0, 0), axis=X_AXIS, radius=Rs,
                                omega=SHAFT_RATE, material="steel")],
                    dt_factor=dt_factor)
-    return sim, SHAFT_RATE, lambda s: float(s.wall_work[0]), lambda s: -float(s.wall_impulse[0, 3])
+    return (sim, SHAFT_RATE, lambda s: s.work(wall=0),
+            lambda s: -float(s.angular_impulse(wall=0)[0]))
 
 
 def drive_books(kind, dt_factor):
@@ -194,14 +196,14 @@ def test_stirred_mill_agitator_and_shaft_turn_at_the_set_speed_and_drive(rpm):
     np.testing.assert_allclose(speed, omega, rtol=1e-9)
 
     # the disks: torque about +x the body supplies = minus the load it receives
-    disk_torque_impulse = -sim.body_impulse[0, 3]
-    assert sim.body_work[0] == pytest.approx(disk_torque_impulse * omega, rel=1e-9)
-    assert sim.body_work[0] > 0
+    disk_torque_impulse = -sim.angular_impulse(body=0)[0]
+    assert sim.work(body=0) == pytest.approx(disk_torque_impulse * omega, rel=1e-9)
+    assert sim.work(body=0) > 0
     # the shaft: the only cylinder_outer wall
-    (shaft,) = np.flatnonzero(sim.walls[:, 0] == CYLINDER_OUTER)
-    shaft_torque_impulse = -sim.wall_impulse[shaft, 3]
-    assert sim.wall_work[shaft] == pytest.approx(shaft_torque_impulse * omega, rel=1e-9)
-    assert sim.wall_work[shaft] > 0, "the turning shaft must drag the beads along, not brake them"
+    (shaft,) = np.flatnonzero(sim.walls[:, W_KIND] == CYLINDER_OUTER)
+    shaft_torque_impulse = -sim.angular_impulse(wall=shaft)[0]
+    assert sim.work(wall=shaft) == pytest.approx(shaft_torque_impulse * omega, rel=1e-9)
+    assert sim.work(wall=shaft) > 0, "the turning shaft must drag the beads along, not brake them"
 
 
 def test_stirred_mill_net_power_is_the_agitator_work_rate():
@@ -253,7 +255,7 @@ def test_ballmill_drive_power_is_torque_times_the_drum_rate(n_over_nc):
     clockwise, rate -omega about +z). Spinning the charge up from rest takes work: the drive's
     total work over the run is positive."""
     drum, grain, duration = 0.02, 0.002, 0.04
-    ds, info = run_scene("ballmill2d", n_over_nc=n_over_nc, drum_radius=drum, grain_radius=grain,
+    ds, prov = run_scene("ballmill2d", n_over_nc=n_over_nc, drum_radius=drum, grain_radius=grain,
                          filling=0.3, duration=duration, transient=0.01, record_interval=0.005,
                          fragmentation=False, seed=3)
     n_c = critical_speed(drum, grain)
@@ -264,6 +266,6 @@ def test_ballmill_drive_power_is_torque_times_the_drum_rate(n_over_nc):
     np.testing.assert_allclose(power, -omega * torque, rtol=1e-9, atol=1e-12 * np.abs(power).max())
     span = np.diff(np.r_[0.0, ds["time"].values])
     assert float((power * span).sum()) > 0
-    assert info.steps == round(duration / info.dt)
+    assert prov["steps"] == round(duration / prov["dt"])
     assert ds["drive_power"].attrs["units"] == "W" and ds["drive_torque"].attrs["units"] == "N m"
     assert ds["n_c"].attrs["units"] == "s-1"

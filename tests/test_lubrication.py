@@ -1,4 +1,4 @@
-"""Pairwise lubrication kernels (engine/lubrication.py) against limits, symmetries and exact solutions.
+"""Pairwise lubrication kernels (models/lubrication.py) against limits, symmetries and exact solutions.
 
 Convention everywhere: n points from j (or the wall) to i, vij = v_i - v_j, h = r - a_i - a_j.
 These are the per-pair functions called directly; the same physics inside the compiled loop (its
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from millsim.engine.lubrication import (
+from millsim.models.lubrication import (
     check_lubrication_params,
     lubrication_dt_limit,
     pair_force_torque,

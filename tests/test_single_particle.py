@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 from scipy import special, stats
 
-from millsim.analysis import tavares_verification as tv
-from millsim.breakage import tavares
+from millsim.analysis.tavares_verification import pass_rule
+from millsim.models.breakage import tavares
+from millsim.models.breakage import tavares_predictions as pred
 from millsim.scenes import single_particle as sp
 from millsim.scenes.base import REGISTRY, RunContext
+from millsim.util.stats import binomial_interval
 
 SCENE = REGISTRY["single_particle"]
 
@@ -23,7 +25,7 @@ def _run(**overrides):
 
 
 def _interval_99(k, n):
-    lo, hi = tv.binomial_interval(k, n, level=0.99)
+    lo, hi = binomial_interval(k, n, level=0.99)
     return float(lo), float(hi)
 
 
@@ -32,21 +34,25 @@ def test_breakage_fraction_within_99_percent_interval_of_eq1():
     the absorbed energy lies inside the 99 % Clopper-Pearson interval of the fraction broken."""
     ds = _run(n_particles=200, energy_ratio=1.2, replacement=False)
     mat = tavares.load_materials(truncation="single_particle")["copper_ore"]
-    share = tv.absorbed_share(mat)
+    share = pred.absorbed_share(mat)
     assert float(ds["absorbed_share"]) == pytest.approx(share)
-    expected = float(tv.breakage_probability(mat, 5.5e-3, float(ds["specific_energy"]), share))
+    expected = float(pred.breakage_probability(mat, 5.5e-3, float(ds["specific_energy"]), share))
     assert float(ds["broken_fraction_analytic"]) == pytest.approx(expected)
     lo, hi = _interval_99(int(ds["n_broken"]), 200)
     assert lo <= expected <= hi, (int(ds["n_broken"]), expected)
-    # particle by particle: broken exactly when its fracture energy is below the absorbed energy
-    # (to the loading work's trapezoidal error, ~1 % at ~25 steps per loading)
+    # particle by particle: broken exactly when its fracture energy is below the absorbed energy,
+    # to the loading work's trapezoidal error (second order in the step: below 4e-4 at the
+    # scene's default, half the recommended step, see tests/test_tavares_engine.py; measured
+    # +8.8e-5 here, where one particle lies 6e-5 above the absorbed energy and breaks)
     eps = share * float(ds["specific_energy"])
     E = ds["particle_fracture_energy_initial"].values
-    clear = np.abs(E / eps - 1) > 0.02
+    clear = np.abs(E / eps - 1) > 1e-3
+    assert clear.sum() >= 195  # the band leaves out only particles at the threshold
     assert np.array_equal(ds["particle_broken"].values[clear] == 1, E[clear] < eps)
     # unbroken particles absorbed e Ek/m (eq 6 inverted from their damage)
     unbroken = ds["particle_broken"].values == 0
-    assert np.nanmean(ds["particle_absorbed_energy"].values[unbroken]) == pytest.approx(eps, rel=0.02)
+    absorbed = np.nanmean(ds["particle_absorbed_energy"].values[unbroken])
+    assert absorbed == pytest.approx(eps, rel=1e-3)
     assert bool(ds["converged"].all())
 
 
@@ -59,43 +65,45 @@ def test_repeated_impacts_follow_the_damage_model():
     ds = _run(mode="repeated", diameter=0.0375, specific_energy=94.7, impacts=impacts,
               gamma=gamma, n_particles=n)
     mat = tavares.load_materials(truncation="single_particle")["copper_ore"]
-    share = tv.absorbed_share(mat)
-    model = tv.repeated_impact_broken(mat, 0.0375, 94.7, share, impacts, gamma=gamma)
+    share = pred.absorbed_share(mat)
+    model = pred.repeated_impact_broken(mat, 0.0375, 94.7, share, impacts, gamma=gamma)
     assert ds["impact_broken_fraction_analytic"].values == pytest.approx(model)
     sim = ds["impact_broken_fraction"].values
     assert sim[-1] > sim[0]  # damage makes later impacts break more
     for k in range(impacts):
         lo, hi = _interval_99(round(sim[k] * n), n)
         assert lo <= model[k] <= hi, (k + 1, sim[k], model[k])
-    # per particle, up to the ~1 % error of the trapezoidal loading work: the simulated impact
-    # lies between the predictions at 0.98 and 1.02 times the nominal absorbed energy
+    # per particle, up to the error of the trapezoidal loading work (below 4e-4 at the scene's
+    # default step): the simulated impact lies between the predictions at 0.999 and 1.001 times
+    # the nominal absorbed energy
     E0 = ds["particle_fracture_energy_initial"].values
-    late = tv._impacts_to_break(E0, 0.98 * share * 94.7, gamma, impacts)
-    early = tv._impacts_to_break(E0, 1.02 * share * 94.7, gamma, impacts)
+    late = pred._impacts_to_break(E0, 0.999 * share * 94.7, gamma, impacts)
+    early = pred._impacts_to_break(E0, 1.001 * share * 94.7, gamma, impacts)
     got = ds["particle_broken_at_impact"].values.copy()
     got[got == 0] = impacts + 1
     agree = (early <= got) & (got <= late)
     assert agree.mean() >= 0.99, np.flatnonzero(~agree)
-    assert (early == late).mean() > 0.8  # the band decides most particles exactly
+    assert (early == late).mean() > 0.95  # the band decides nearly every particle exactly
 
 
 def test_repeated_model_reduces_to_eq1_for_one_impact():
     mat = tavares.load_materials(truncation="single_particle")["limestone"]
-    share = tv.absorbed_share(mat)
-    one = tv.repeated_impact_broken(mat, 5.5e-3, 60.0, share, 1)[0]
-    assert one == pytest.approx(float(tv.breakage_probability(mat, 5.5e-3, 60.0, share)), abs=1e-4)
+    share = pred.absorbed_share(mat)
+    one = pred.repeated_impact_broken(mat, 5.5e-3, 60.0, share, 1)[0]
+    assert one == pytest.approx(float(pred.breakage_probability(mat, 5.5e-3, 60.0, share)), abs=1e-4)
 
 
 def test_drop_weight_sums_the_two_contacts():
     """A striker onto a particle resting on the anvil: the particle absorbs e Ek/m of the striker's
     1/2 M v^2 only if the striker-particle and particle-anvil contacts are summed (each carries
-    about half of the work)."""
+    about half of the work). To the loading work's trapezoidal error, below 4e-4 at the scene's
+    default step (measured 1e-6): 1e-3."""
     ds = _run(mode="drop_weight", n_particles=16, energy_ratio=0.05, replacement=False)
     unbroken = ds["particle_broken"].values == 0
     assert unbroken.sum() >= 12
     nominal = float(ds["absorbed_share"]) * float(ds["specific_energy"])
     absorbed = ds["particle_absorbed_energy"].values[unbroken]
-    assert absorbed == pytest.approx(np.full(absorbed.shape, nominal), rel=0.05)
+    assert absorbed == pytest.approx(np.full(absorbed.shape, nominal), rel=1e-3)
     assert bool(ds["converged"].all())
 
 
@@ -204,21 +212,21 @@ def test_binomial_intervals_and_pass_rule():
     """Default 95 % intervals against closed forms: Clopper-Pearson upper bound at k = 0 is
     1 - (alpha/2)^(1/n); Wilson's score interval (p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) /
     (1 + z^2/n) with z = 1.959964."""
-    lo, hi = tv.binomial_interval(0, 50)
+    lo, hi = binomial_interval(0, 50)
     assert lo == 0 and float(hi) == pytest.approx(1 - 0.025 ** (1 / 50), rel=1e-9)  # 0.0711
-    lo, hi = tv.binomial_interval(50, 50)
+    lo, hi = binomial_interval(50, 50)
     assert float(lo) == pytest.approx(0.025 ** (1 / 50), rel=1e-9) and hi == 1
     z, n, p = 1.959963984540054, 50, 0.3
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    lo, hi = tv.binomial_interval(15, 50, method="wilson")
+    lo, hi = binomial_interval(15, 50, method="wilson")
     assert (float(lo), float(hi)) == pytest.approx((centre - half, centre + half), rel=1e-9)
-    assert tv.pass_rule([1, 1, 1, 1, 1, 1, 1, 1, 1, 0]) == (0.9, True)
-    assert tv.pass_rule([1, 0, np.nan]) == (0.5, False)
+    assert pass_rule([1, 1, 1, 1, 1, 1, 1, 1, 1, 0]) == (0.9, True)
+    assert pass_rule([1, 0, np.nan]) == (0.5, False)
 
 
 def test_table2_comparison():
-    _, seed, ours, target = tv.table2_comparison()
+    _, seed, ours, target = pred.table2_comparison()
     assert seed[3] == pytest.approx(17.87, abs=0.01)  # Table 2 mean passing x = 1/2
     assert np.abs(ours - target).max() < 0.05  # the families reproduce eq 10 exactly
     assert np.abs(ours - seed).max() < 3.5

@@ -9,13 +9,13 @@ have separated (no elastic energy left in a contact).
 import numpy as np
 import pytest
 
-from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
-from millsim.engine.timestep import TimeStepError
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy, TimeStepError
+from millsim.models import Interaction, Lubrication, Material, MaterialTable, TavaresModel
 
-HERTZ = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, gravity=False,
-                    energy_audit=True)
-WET = PhysicsSpec(dim=3, contact_law="linear_history", walls=True, gravity=False,
-                  lubrication=True, energy_audit=True)
+# The contact law comes with the material table (hertz_mindlin unless it names another), the
+# lubrication with the Simulation's fluid: the dry Hertz cases and the wet pair share one spec.
+HERTZ = PhysicsSpec(dim=3, walls=True, gravity=False, energy_audit=True)
+WET = HERTZ
 STEEL = Material("steel", 7800.0, 210e9, 0.3)
 ORE = Material("ore", 2800.0, 52e9, 0.25)
 
@@ -38,7 +38,7 @@ def test_real_stiffness_steel_ball_on_ore_closes_energy():
     x = [[0.3 * r, 0, r + r_ball + 1e-4], [0, 0, 0]]
     sim = Simulation(HERTZ, table, x=x, radius=[r_ball, r], material=["steel", "ore"],
                      v=[[0, 0, -v0], [0, 0, 0]], w=[[0, 30.0, 0], [0, 0, 0]],
-                     gravity=(0, 0, 0), impact_speed=v0)
+                     gravity=(0, 0, 0), step=StepPolicy(impact_speed=v0))
     ke0 = sim.kinetic_energy()
     sim.run(int(2e-4 / sim.dt), chunk=500)
     assert _separated(sim)
@@ -53,7 +53,7 @@ def test_100_m_per_s_impact_on_a_plate_closes_energy():
     table = MaterialTable([STEEL, ORE], {"*": Interaction(restitution=0.5, friction=0.5)})
     r, v0 = 2.75e-3, 100.0
     sim = Simulation(HERTZ, table, x=[[0, 0, r + 1e-4]], radius=[r], material="ore",
-                     v=[[20.0, 0, -v0]], gravity=(0, 0, 0), impact_speed=v0,
+                     v=[[20.0, 0, -v0]], gravity=(0, 0, 0), step=StepPolicy(impact_speed=v0),
                      walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")])
     ke0 = sim.kinetic_energy()
     sim.run(int(2e-5 / sim.dt) + 200, chunk=200)
@@ -70,10 +70,10 @@ def test_impact_faster_than_declared_is_stopped_naming_the_speed():
     table = MaterialTable([STEEL, ORE], {"*": Interaction(restitution=0.5, friction=0.5)})
     r = 2.75e-3
     sim = Simulation(HERTZ, table, x=[[0, 0, r + 1e-4]], radius=[r], material="ore",
-                     v=[[0, 0, -100.0]], gravity=(0, 0, 0), impact_speed=1.0,
-                     dt=None, walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1),
-                                          material="steel")])
-    sim.set_time_step(sim.dt_report.limit)
+                     v=[[0, 0, -100.0]], gravity=(0, 0, 0), step=StepPolicy(impact_speed=1.0),
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1),
+                                 material="steel")])
+    sim.set_time_step(dt=sim.dt_report.limit)
     with pytest.raises(SimulationError, match="impacts at 100 m/s.*declare impact_speed"):
         sim.run(20000, chunk=1000)
     assert np.isfinite(sim.particles.v).all()
@@ -96,13 +96,13 @@ def _wet_pair(eta, dt=None, v0=0.5):
     x = [[0, 0, 0], [2 * a + 0.02 * a, 0, 0]]
     return Simulation(WET, table, x=x, radius=[a, a], material="bead",
                       v=[[v0, 0.2 * v0, 0], [-v0, 0, 0]], w=[[0, 0, 50.0], [0, 0, 0]],
-                      gravity=(0, 0, 0), fluid=dict(eta=eta), dt=dt)
+                      gravity=(0, 0, 0), fluid=Lubrication(eta), step=StepPolicy(dt=dt))
 
 
 def test_high_viscosity_step_above_the_lubrication_limit_is_refused():
     sim = _wet_pair(10.0)
     limit = sim.dt_report.limit
-    assert "lubrication" in sim.dt_report.binding.interaction
+    assert sim.dt_report.binding.kind == "lubrication"
     with pytest.raises(TimeStepError, match=r"eta = 10 Pa s.*h_min"):
         _wet_pair(10.0, dt=1.5 * limit)
 
@@ -130,8 +130,7 @@ def test_high_viscosity_pair_runs_stable_and_closes_energy():
 # fragments down to 1/20 of the parent size (Tavares breakage, seed 002)
 # ------------------------------------------------------------------------------------------------
 
-TAVARES = PhysicsSpec(dim=3, contact_law="hertz_mindlin", walls=True, gravity=False,
-                      fracture="tavares", energy_audit=True)
+TAVARES = HERTZ  # with breakage=TavaresModel(...)
 
 
 def _hertz_elastic_energy(sim):
@@ -139,27 +138,29 @@ def _hertz_elastic_energy(sim):
     counting only overlap beyond the creation reference of progeny. The tangential springs' energy
     is not added: the audit's tangential terms already hold it (they integrate the tangential
     force's whole power)."""
-    from millsim.engine import contact as law
-    from millsim.engine.kinematics import wall_contact
+    from millsim.engine.kinematics import W_MATERIAL, wall_contact
+    from millsim.models import contact as law
 
     p, pp = sim.particles, sim.pair_params
+    base = sim.layout.spring  # the breakage model's columns follow the contact law's
     i, j, overlap, slot = sim.contact_pairs(with_slots=True)
-    xi = np.maximum(overlap - sim.contacts.state[slot, sim.state_columns - 1], 0.0)
+    xi = np.maximum(overlap - sim.breakage.reference_overlap(sim.contacts.state[slot, base:]), 0.0)
     r_eff = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j])
     e = float((8 / 15 * pp[p.material[i], p.material[j], law.P_E_STAR] * np.sqrt(r_eff)
                * xi**2.5).sum())
     for iw, wall in enumerate(sim.walls):
         for q in range(sim.n_particles):
-            xw = wall_contact(wall, *p.x[q], p.radius[q])[0] - sim.wall_hist[q, iw, 5]
+            ref = sim.breakage.reference_overlap(sim.wall_hist[q, iw:iw + 1, base:])[0]
+            xw = wall_contact(wall, *p.x[q], p.radius[q])[0] - ref
             if xw > 0:
-                e += 8 / 15 * pp[p.material[q], int(wall[9]), law.P_E_STAR] * np.sqrt(
+                e += 8 / 15 * pp[p.material[q], int(wall[W_MATERIAL]), law.P_E_STAR] * np.sqrt(
                     p.radius[q]) * xw**2.5
     return e
 
 
 def _ore_on_plate(v0, seed=3):
-    from millsim.breakage.replacement import TavaresReplacement
-    from millsim.breakage.tavares import load_materials
+    from millsim.models.breakage.replacement import TavaresReplacement
+    from millsim.models.breakage.tavares import load_materials
 
     mats = load_materials(truncation="single_particle")
     ore, steel = mats["copper_ore"], mats["steel"]
@@ -170,9 +171,9 @@ def _ore_on_plate(v0, seed=3):
     replace = TavaresReplacement({"copper_ore": ore}, d_min=2 * r / 20, seed=seed)
     # automatic dt (no smallest_radius): it has to follow the fragments as they appear
     sim = Simulation(TAVARES, table, x=[[0, 0, 1.02 * r]], radius=[r], material="copper_ore",
-                     v=[[0, 0, -v0]], gravity=(0, 0, 0), impact_speed=v0,
+                     v=[[0, 0, -v0]], gravity=(0, 0, 0), step=StepPolicy(impact_speed=v0),
                      walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
-                     breakage={"copper_ore": (ore.gamma, 0.0)})
+                     breakage=TavaresModel({"copper_ore": (ore.gamma, 0.0)}))
     replace.assign_fracture_energies(sim, [0])
     return sim, replace, ore
 
@@ -194,23 +195,24 @@ def test_fragments_down_to_a_twentieth_of_the_parent_close_the_energy_audit():
     r0, dt0, ke0 = sim.particles.radius[0], sim.dt, sim.kinetic_energy()
     removed, dts = [0.0], []
 
-    def on_fracture(s):
+    def on_events(s):
         before = s.kinetic_energy() + _hertz_elastic_energy(s)
         replace(s)
-        finite = np.isfinite(s.particles.e_frac)
-        s.particles.e_frac[finite] = np.minimum(s.particles.e_frac[finite], 30.0)
+        finite = np.isfinite(s.breakage.e_frac)
+        s.breakage.e_frac[finite] = np.minimum(s.breakage.e_frac[finite], 30.0)
         removed[0] += before - s.kinetic_energy() - _hertz_elastic_energy(s)
         dts.append(s.dt)
 
     while sim.time < 1e-4:
-        sim.run(2000, chunk=2000, on_fracture=on_fracture)
+        sim.run(2000, chunk=2000, on_events=on_events)
     p = sim.particles
     assert np.isfinite(p.x).all() and np.isfinite(p.v).all()
     d_min, d_small = 2 * r0 / 20, 2 * p.radius.min()
     assert len(replace.events) >= 10
     assert d_min <= d_small < 1.1 * d_min  # a second generation reached the resolved minimum
     # the step followed the fragments: 0.1 of the Rayleigh time of the smallest one
-    from millsim.engine.timestep import RAYLEIGH_RECOMMENDED, rayleigh_time
+    from millsim.engine.timestep import RAYLEIGH_RECOMMENDED
+    from millsim.models.contact import rayleigh_time
 
     mat = sim.table.materials[0]
     t_r = rayleigh_time(p.radius.min(), mat.density, mat.shear_modulus, mat.poisson_ratio)
@@ -232,7 +234,7 @@ def test_fragments_squeezed_beyond_the_overlap_guard_stop_the_run_naming_the_pai
     sim, replace, _ = _ore_on_plate(60.0)
     with pytest.raises(SimulationError, match=r"overlap between particle \d+ and particle \d+ "
                                               r"exceeds 0.3 of the smaller radius"):
-        sim.run(20000, chunk=2000, on_fracture=replace)
+        sim.run(20000, chunk=2000, on_events=replace)
     assert len(replace.events) >= 2
     assert np.isfinite(sim.particles.x).all() and np.isfinite(sim.particles.v).all()
 
@@ -254,7 +256,7 @@ def test_stirred_mill_at_4000_rpm_closes_its_energy_balance():
                                                     eta=0.05, seed=3,
                                                     agitator_particle_radius=2e-3))
     sim, g = sm.build(values)
-    assert sim.spec.lubrication and g["tip_speed"] == pytest.approx(14.24, rel=1e-3)
+    assert sim.fluid is not None and g["tip_speed"] == pytest.approx(14.24, rel=1e-3)
     k_n = g["k_n"]
     k_t = k_n * values["tangential_stiffness_ratio"]
     start = sm.energy_state(sim, k_n, k_t)
@@ -293,6 +295,7 @@ def test_ball_mill_at_twice_the_critical_speed_closes_its_energy_balance():
     removes. The audit variant of the scene's physics is compiled here (energy_audit on)."""
     import dataclasses
 
+    from millsim.engine.kinematics import B_AXIS, B_CENTER, B_RATE
     from millsim.scenes import ballmill2d as bm
     from millsim.scenes.base import get_scene
 
@@ -304,19 +307,18 @@ def test_ball_mill_at_twice_the_critical_speed_closes_its_energy_balance():
     p, b = scene.particles, scene.bodies[0]
     sim = Simulation(dataclasses.replace(scene.spec, energy_audit=True), scene.table,
                      x=p.x.copy(), radius=p.radius.copy(), material="grain", body=p.body.copy(),
-                     bodies=[dict(kind="rotate", center=b[1:4], axis=b[4:7], rate=b[7])],
+                     bodies=[dict(kind="rotate", center=b[B_CENTER], axis=b[B_AXIS], rate=b[B_RATE])],
                      gravity=scene.gravity, thickness=scene.thickness, skin=scene.skin,
-                     impact_speed=scene.impact_speed, max_overlap=0.5,
-                     smallest_radius=scene.smallest_radius)
-    sim.set_time_step(scene.dt)
+                     step=scene.policy, guards=scene.guards)
+    assert sim.dt == scene.dt and scene.guards.max_overlap == 0.5
     # the scene's step is capped by the Haff-Werner tangential dashpot (Gear), not t_c / 25
-    assert "tangential dashpot" in sim.dt_report.binding.interaction
+    assert sim.dt_report.binding.kind == "tangential_dashpot"
     assert scene.dt == pytest.approx(sim.dt_report.limit)
     k_n = scene.table.pair_params()[0, 0, 0]
 
     def state(s):
         elastic = 0.5 * k_n * float((s.contact_pairs()[2] ** 2).sum())
-        return np.array([s.body_work[0], s.kinetic_energy(), s.potential_energy(), elastic,
+        return np.array([s.work(body=0), s.kinetic_energy(), s.potential_energy(), elastic,
                          sum(s.energy_audit().values())])
 
     a = state(sim)

@@ -20,8 +20,9 @@ from millsim.analysis.stirred_mill import (
     predict,
     read_reference,
 )
-from millsim.engine import Interaction, Material, MaterialTable, Simulation
-from millsim.io import read_case, write_case
+from millsim.engine import Simulation
+from millsim.io import read_case
+from millsim.models import Interaction, Lubrication, Material, MaterialTable
 from millsim.scenes.base import RunContext, get_scene
 from millsim.scenes.stirred_mill import physics_spec
 
@@ -42,6 +43,13 @@ def test_squeeze_under_constant_force_in_the_full_engine():
     G(h) = 6 pi eta a [(a/4) ln h + (9/40)(h ln(a/h) + h)]:
         (1) m v + G(h) + F0 t = m v0 + G(h0)         (exact first integral)
         (2) t(h) = [G(h0) - G(h)] / F0 + inertial lag (overdamped analytic solution).
+    The bead starts inside the film at its terminal speed, so the start state's force matters: the
+    engine evaluates it before the first step. Measured at the default step (0.25 of the
+    lubrication limit): (1) to 2.2e-11 of F0 t_end (tolerance 1e-9) and the Radau solution to
+    1.6e-9 relative (tolerance 1e-7); 9.4e-11 and 2.1e-9 at twice the step. With the first step
+    on gravity alone (the engine before issue 11, at twice this step) they were 3.5e-6 and
+    1.1e-5, within the former tolerances 1e-4 and 2e-3. (2) is a first-order approximation:
+    measured 1.1e-4 of t_end, tolerance 5e-3.
     """
     eta, a, rho, g = 1.0, 1e-3, 6000.0, 9.81
     m = 4 / 3 * PI * a**3 * rho
@@ -58,12 +66,12 @@ def test_squeeze_under_constant_force_in_the_full_engine():
     v0 = -F0 / X(h0)
     table = MaterialTable([Material("bead", rho)], {"*": Interaction(normal_stiffness=1e3, friction=0.3)},
                           "linear_history")
-    sim = Simulation(physics_spec(True, True), table, x=[[0, 0, 2 * a + h0], [0, 0, 0]], radius=[a, a],
+    sim = Simulation(physics_spec(True), table, x=[[0, 0, 2 * a + h0], [0, 0, 0]], radius=[a, a],
                      material="bead", v=[[0, 0, v0], [0, 0, 0]], body=[-1, 0],
                      bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(1, 0, 0), rate=0.0)],
-                     gravity=(0, 0, -g), box_lo=(-0.01, 0, 0), box_len=(0.02, 0, 0),
-                     fluid=dict(eta=eta, h_min=0.001, h_max=0.05))
-    assert "lubrication" in sim.dt_report.binding.interaction
+                     gravity=(0, 0, -g), box=((-0.01, 0, 0), (0.02, 0, 0)),
+                     fluid=Lubrication(eta=eta, h_min=0.001, h_max=0.05))
+    assert sim.dt_report.binding.kind == "lubrication"
     ts, hs, vs = [], [], []
 
     def observe(s):
@@ -79,14 +87,14 @@ def test_squeeze_under_constant_force_in_the_full_engine():
     inv0 = m * v0 + G(h0)
     tau0 = m / X(h0)  # inertial relaxation time at the start
     for t, h, v in zip(ts, hs, vs):
-        assert abs(m * v + G(h) + F0 * t - inv0) <= 1e-4 * F0 * t_end  # (1)
+        assert abs(m * v + G(h) + F0 * t - inv0) <= 1e-9 * F0 * t_end  # (1)
         if t > 5 * tau0:  # (2), past the start-up, with the gap shifted by its first-order lag
             lag = m * (v0 + F0 / X(h)) / X(h)
             assert abs(t - (G(h0) - G(h - lag)) / F0) <= 5e-3 * t_end
     # the same trajectory from an accurate ODE solution with the same force law
     sol = solve_ivp(lambda t, y: [y[1], (-X(y[0]) * y[1] - F0) / m], (0, ts[-1]), [h0, v0],
                     method="Radau", rtol=1e-9, atol=[1e-13, 1e-10], dense_output=True)
-    np.testing.assert_allclose(hs, sol.sol(ts)[0], rtol=2e-3, atol=1e-3 * h_end)
+    np.testing.assert_allclose(hs, sol.sol(ts)[0], rtol=1e-7, atol=1e-7 * h_end)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -100,11 +108,8 @@ TINY = dict(scale=0.3, slice=True, n_beads=250, rpm=3000, eta=0.05, revolutions=
 @pytest.fixture(scope="module")
 def tiny_case(tmp_path_factory):
     values = SCENE.resolve(TINY)
-    ds, info = SCENE.run(values, RunContext(progress=False))
     path = tmp_path_factory.mktemp("stirred") / "case.nc"
-    write_case(path, ds, {"scene": "stirred_mill", "parameters": values, "seed": info.seed,
-                          "dt": info.dt, "steps": info.steps, "wall_time_s": info.wall_time_s,
-                          **info.extra})
+    SCENE.run(values, RunContext(progress=False), out=path)
     return read_case(path)
 
 
@@ -168,12 +173,12 @@ def test_tiny_stirred_box_energy_balance_closes(tiny_case):
 # ------------------------------------------------------------------------------------------------
 
 DRY_SCENE = textwrap.dedent("""
-    from millsim.engine import contact, lubrication
+    from millsim.models import contact, lubrication
     from millsim.scenes.base import get_scene
     from millsim.scenes.stirred_mill import build
     values = get_scene("stirred_mill").resolve(dict(scale=0.3, slice=True, n_beads=40, eta=0.0))
     sim, _ = build(values)
-    assert not sim.spec.lubrication
+    assert sim.fluid is None
     sim.run(20, threads=1)
     print(len(contact.linear_history.signatures), len(lubrication.pair_force_torque.signatures),
           len(lubrication.wall_force_torque.signatures), len(lubrication.pair_resistances.signatures))

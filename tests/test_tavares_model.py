@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy import integrate, special, stats
 
-from millsim.analysis.tavares_verification import (TABLE2_COUNTS, TABLE2_DUMMY, TABLE2_PROB,
-                                                    TABLE2_SIZES)
-from millsim.breakage import tavares as tv
+from millsim.models.breakage import tavares as tv
+from millsim.models.breakage.tavares_predictions import (TABLE2_COUNTS, TABLE2_DUMMY, TABLE2_PROB,
+                                                         TABLE2_SIZES)
 
 STEEL_K = 210e9 / (1.0 - 0.3**2)
 

@@ -25,13 +25,15 @@ import pytest
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
-from millsim.engine import Interaction, Material, MaterialTable, PhysicsSpec, Simulation
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.models import Interaction, Material, MaterialTable
 
 # The physics variants other test files compile already (tests/test_dynamics.py, test_engine.py):
 # no new kernel for this file.
-WALL_VERLET = PhysicsSpec(dim=3, contact_law="linear_history", walls=True)
-WALL_GEAR = PhysicsSpec(dim=3, contact_law="linear_history", integrator="gear", walls=True)
-BODY_HERTZ = PhysicsSpec(dim=3, contact_law="hertz_mindlin", bodies=True)
+# (spec, contact law) pairs.
+WALL_VERLET = (PhysicsSpec(dim=3, walls=True), "linear_history")
+WALL_GEAR = (PhysicsSpec(dim=3, integrator="gear", walls=True), "linear_history")
+BODY_HERTZ = (PhysicsSpec(dim=3, bodies=True), "hertz_mindlin")
 
 R = 1e-3  # particle radius [m]
 RHO = 2500.0
@@ -41,20 +43,22 @@ W0 = math.sqrt(K_N / MASS)  # particle-wall contact: m_eff = m
 ZERO_G = (0.0, 0.0, 0.0)
 
 
-def make_sim(spec, x, v=None, *, radius=R, restitution=0.5, friction=0.0, walls=(), bodies=(),
+def make_sim(variant, x, v=None, *, radius=R, restitution=0.5, friction=0.0, walls=(), bodies=(),
              body=None, gravity=ZERO_G, impact_speed=1.0):
-    """The one place a Simulation is built (one material "m" for particles, walls and bodies)."""
-    if spec.contact_law == "hertz_mindlin":
+    """The one place a Simulation is built (one material "m" for particles, walls and bodies);
+    ``variant``: (spec, contact law)."""
+    spec, law = variant
+    if law == "hertz_mindlin":
         mat = Material("m", RHO, 5e6, 0.3)
         inter = Interaction(restitution=restitution, friction=friction)
     else:
         mat = Material("m", RHO)
         inter = Interaction(restitution=restitution, friction=friction, normal_stiffness=K_N)
-    table = MaterialTable([mat], {"*": inter}, spec.contact_law)
+    table = MaterialTable([mat], {"*": inter}, law)
     n = len(x)
     return Simulation(spec, table, x=np.asarray(x, float), radius=np.broadcast_to(radius, n).copy(),
                       material="m", v=v, walls=list(walls), bodies=list(bodies), body=body,
-                      gravity=gravity, impact_speed=impact_speed)
+                      gravity=gravity, step=StepPolicy(impact_speed=impact_speed))
 
 
 def unit(a):
@@ -117,7 +121,7 @@ def _assert_impulses_balance(sim, m, v0):
     """Velocity Verlet: m (v_N - v_0) = sum_k F_k dt exactly when the force is zero at both ends
     (apart at start and end); the wall accumulates -F_k dt each step: equal and opposite."""
     dp = m * (sim.particles.v[0] - v0)
-    np.testing.assert_allclose(-sim.wall_impulse[0, :3], dp, rtol=0, atol=1e-10 * m * V_N)
+    np.testing.assert_allclose(-sim.impulse(wall=0), dp, rtol=0, atol=1e-10 * m * V_N)
 
 
 # ---- 1. rebound from every wall kind ----------------------------------------------------------
@@ -234,7 +238,7 @@ def test_rotating_cylinder_drags_particle_and_work_is_torque_times_omega(kind, o
     sim, m = _collide([wall], x0, v0, friction=mu)
     p = sim.particles
     _assert_impulses_balance(sim, m, v0)
-    j = -sim.wall_impulse[0, :3]  # impulse on the particle
+    j = -sim.impulse(wall=0)  # impulse on the particle
     # surface velocity direction at the contact point r_c = R_wall u (u radial): omega a x u
     u = -n if kind == "cylinder_inner" else n
     s = unit(omega * np.cross(a, u))
@@ -257,10 +261,10 @@ def test_rotating_cylinder_drags_particle_and_work_is_torque_times_omega(kind, o
     # the contact torque (r_c - x_k) x F_k), which is the plain sum when the force vanishes at
     # both ends: equal to minus the wall's summed torque up to round-off. The wall's power is
     # F . omega a x r_c = omega a . (r_c x F): its work is omega dl up to round-off too.
-    assert sim.wall_work[0] == pytest.approx(omega * dl, rel=1e-9)
-    assert -np.dot(sim.wall_impulse[0, 3:], a) == pytest.approx(dl, rel=1e-9)
+    assert sim.work(wall=0) == pytest.approx(omega * dl, rel=1e-9)
+    assert -np.dot(sim.angular_impulse(wall=0), a) == pytest.approx(dl, rel=1e-9)
     ke_gain = 0.5 * m * (p.v[0] @ p.v[0] - v0 @ v0) + 0.5 * inertia * p.w[0] @ p.w[0]
-    assert 0 < ke_gain < sim.wall_work[0]  # friction dissipates part of the work
+    assert 0 < ke_gain < sim.work(wall=0)  # friction dissipates part of the work
 
 
 # ---- 2. integrators in the compiled loop: damped linear oscillator ----------------------------
@@ -280,9 +284,8 @@ def _oscillator(spec, restitution, dt, checked=True):
     z_eq = R - XI_EQ
     sim = make_sim(spec, [[0.0, 0.0, z_eq - AMP]], restitution=restitution, gravity=(0, 0, -g),
                    walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")])
-    # The engine starts acc at gravity alone; give it the exact initial acceleration (contact
-    # force included) so that the scheme starts from a consistent state.
-    sim.particles.acc[0] = (0.0, 0.0, W0**2 * AMP)
+    # The engine evaluates the start state's force (contact included) before the first step:
+    # the scheme starts from the exact initial acceleration W0^2 AMP.
     if checked:
         sim.set_time_step(dt)
     else:
@@ -404,8 +407,7 @@ def test_verlet_stability_bound():
     # Above: start tiny so that 60 steps of growth (~1.6e5) stay in contact.
     h = 2.01
     sim, _ = _oscillator(WALL_VERLET, 1.0, h / W0, checked=False)
-    sim.particles.x[0, 2] = R - XI_EQ - 1e-6 * AMP
-    sim.particles.acc[0, 2] = W0**2 * 1e-6 * AMP
+    sim.particles.x[0, 2] = R - XI_EQ - 1e-6 * AMP  # the first chunk evaluates its force
     sim.run(40, chunk=40)
     y40 = _y(sim)
     sim.run(20, chunk=20)
@@ -476,6 +478,6 @@ def test_rotating_body_pose_and_work_on_a_struck_particle():
     paddle_dir = unit(np.cross(a, paddle0 - c))  # the paddle's velocity at the start
     assert np.dot(p.v[1], paddle_dir) > 0.5 * rate * arm  # pushed the way the paddle moves
     dl = np.dot(np.cross(p.x[1] - c, m * p.v[1]), a)  # from rest: angular momentum gained
-    assert sim.body_work[0] == pytest.approx(ke, rel=4e-4)
-    assert sim.body_work[0] == pytest.approx(rate * dl, rel=1e-9)
-    assert -np.dot(sim.body_impulse[0, 3:], a) == pytest.approx(dl, rel=1e-9)
+    assert sim.work(body=0) == pytest.approx(ke, rel=4e-4)
+    assert sim.work(body=0) == pytest.approx(rate * dl, rel=1e-9)
+    assert -np.dot(sim.angular_impulse(body=0), a) == pytest.approx(dl, rel=1e-9)

@@ -5,7 +5,7 @@
 # Config block `accuracy` (config/config.yaml): per scene name (ballmill, single_particle,
 # bed_impact, stirred_mill) fixed `parameters`, `seed` (repeated at every step), and `series`:
 # each series sets a few parameters (`set`, e.g. the integrator or eta) and sweeps one step
-# parameter (`ladder`: dt, dt_factor or steps_per_contact); `reference: <series>` compares it with
+# parameter (`ladder`: dt or dt_factor); `reference: <series>` compares it with
 # another series' converged value (Verlet against Gear). Cases, one `millsim run` each, cached:
 #   results/cases/accuracy_<name>_<series>/<ladder>~<v>/seed~<s>/case.nc
 # then one table per series (results/accuracy/<name>/<series>.csv), the aggregate

@@ -1,7 +1,6 @@
 """Error against run time (work-precision) of each scene's headline observables.
 
-A *ladder* is one scene run over a sequence of time steps (a `dt`, `dt_factor` or
-`steps_per_contact` sweep), each step repeated over seeds. Per step and observable this module
+A *ladder* is one scene run over a sequence of time steps (a `dt` or `dt_factor` sweep), each step repeated over seeds. Per step and observable this module
 gives the mean over seeds, the error against a converged reference, the statistical noise and the
 wall time, and picks the cheapest step whose error is within a tolerance (1 % of the reference) or
 within the noise. Everything here is a pure function of numbers (numpy/pandas); ``millsim analyse

@@ -34,7 +34,9 @@ from .neighbours import build_verlet, min_image, wrap_periodic
 from .state import ContactList, Scratch
 
 # Fast-math without the no-NaN/no-inf assumptions, so that the engine's NaN guard still sees NaN.
-FAST = {"contract", "arcp", "afn", "nsz", "reassoc"}
+# A dict, not a set: numba keys the disk cache of a closure by its pickled cells, and a set of
+# strings pickles in a per-process order (hash randomisation), so every process would recompile.
+FAST = {"contract": True, "arcp": True, "afn": True, "nsz": True, "reassoc": True}
 BLOCK = 256  # particles per reduction block (fixed, so sums do not depend on the thread count)
 SLOT_BASE = 8  # slot record: force on i (3), n x F_t (3), overlap, normal force
 # Energy audit terms [J]: contact normal damping, tangential force x centre slip, tangential force x

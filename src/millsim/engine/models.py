@@ -45,6 +45,7 @@ Fluid hooks (``fp``: the fluid's parameter array):
   dissipation normal, tangential, lever(3), power)``.
 """
 
+import types
 import uuid
 from collections import namedtuple
 
@@ -62,16 +63,41 @@ def stable_identity(dispatcher, key):
 
     numba keys its on-disk cache of a closure by the pickled closure variables, and a dispatcher
     pickles with a per-process random uuid: a loop that reaches its hooks through its closure would
-    compile anew in every process (seen: the Tavares loop, ~20 s per case). A uuid derived from
-    ``key`` (which must name everything the function's code depends on) makes it cacheable. If a
-    numba version drops this private method the loop still works, it only recompiles.
+    compile anew in every process (seen: every scene's loop, ~60 s per case). A uuid derived from
+    ``key`` (which must name everything the function's code depends on) makes it cacheable. The
+    module-level dispatchers its code calls (pickled with it, by value) get one from their
+    qualified name. If a numba version drops this private method the loop still works, it only
+    recompiles.
     """
+    _set_stable_uuid(dispatcher, key)
+    _stabilize_callees(dispatcher.py_func, set())
+    return dispatcher
+
+
+def _set_stable_uuid(dispatcher, key):
     if hasattr(dispatcher, "_set_uuid"):
         try:
             dispatcher._set_uuid(str(uuid.uuid5(uuid.NAMESPACE_URL, f"millsim:{key}")))
-        except AssertionError:  # already has one (e.g. it was pickled before)
+        except AssertionError:  # already has one (given before, or it was pickled before)
             pass
-    return dispatcher
+
+
+def _stabilize_callees(fn, seen):
+    names, codes = set(), [fn.__code__]
+    while codes:  # the names used by the function and the functions defined in it
+        code = codes.pop()
+        names.update(code.co_names)
+        codes.extend(c for c in code.co_consts if isinstance(c, types.CodeType))
+    callees = [fn.__globals__.get(name) for name in names]
+    callees += [cell.cell_contents for cell in fn.__closure__ or ()]
+    for obj in callees:
+        py_func = getattr(obj, "py_func", None)
+        if py_func is None or id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        if py_func.__closure__ is None:  # closures are named by whoever builds them
+            _set_stable_uuid(obj, f"{py_func.__module__}.{py_func.__qualname__}")
+        _stabilize_callees(py_func, seen)
 
 
 def _hook(fn, key):

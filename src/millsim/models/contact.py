@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from numba import njit
 
 from ..engine.integrators import DAMPING_LIMIT, GEAR_OMEGA_DT_LIMIT
+from ..engine.loop import FAST
 from ..engine.models import stable_identity
 from ..engine.timestep import (RAYLEIGH_LIMIT, RAYLEIGH_RECOMMENDED, STEPS_PER_CONTACT_LIMIT,
                                STEPS_PER_CONTACT_RECOMMENDED, StepBound)
@@ -44,8 +45,6 @@ N_PARAMS = 8
 
 TWO_SQRT_5_6 = 2.0 * math.sqrt(5.0 / 6.0)
 
-# Fast-math without the no-NaN/no-inf assumptions, so that the engine's NaN guard still sees NaN.
-FAST = {"contract", "arcp", "afn", "nsz", "reassoc"}
 
 
 @njit(inline="always", cache=True, fastmath=FAST)

@@ -17,7 +17,7 @@ Modes:
 
 **The set specific energy is the stressing (input) energy** Ek/m: 1/2 v^2 (or 1/2 M v^2/m), the
 x-axis of seed 002 Figs 8-11 and 16 and the basis of Table 4's E_inf. The particle absorbs
-e = k_s/(k_p + k_s) of it (eq 4); the analytic model (millsim.analysis.tavares_verification) is
+e = k_s/(k_p + k_s) of it (eq 4); the analytic model (millsim.models.breakage.tavares_predictions) is
 eq 1 at e Ek/m with the absorbed median, identical to eq 1 at Ek/m with median E_inf[1+(d0/d)^phi].
 Give it in J/kg (``specific_energy``) or as a multiple of that stressing-basis median
 (``energy_ratio``, used when specific_energy = 0: the same ratios give comparable probabilities
