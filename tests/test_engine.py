@@ -241,3 +241,19 @@ def test_smallest_radius_hint_sets_the_bound_from_the_start():
     assert hinted.dt_report.limit == pytest.approx(grown.dt_report.limit, rel=1e-12)
     hinted.add_particles([[0.01, 0, 0]], [1e-4], "m")
     assert hinted.dt_report.limit == pytest.approx(grown.dt_report.limit, rel=1e-12)
+
+
+def test_fast_approach_from_outside_the_skin_is_caught_by_the_list():
+    """Two spheres start 5.5 skins apart (not in the list) and close at 0.5 m/s: the list must be
+    rebuilt once any particle has moved half a skin, so that the pair is listed before the surfaces
+    meet; a list rebuilt later lets them interpenetrate unseen (no force, then an overlap far beyond
+    the guard). The rebound is then the head-on one: restitution e by the law's definition."""
+    spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
+    r, skin, v = 1e-3, 2e-4, 0.25
+    e = 0.8
+    sim = Simulation(spec, _table(restitution=e, friction=0.0), x=[[0, 0, 0], [2 * r + 5.5 * skin, 0, 0]],
+                     radius=[r, r], material="m", v=[[v, 0, 0], [-v, 0, 0]], skin=skin)
+    steps = int(2 * (5.5 * skin / (2 * v)) / sim.dt)  # twice the time to close the gap
+    sim.run(steps, chunk=steps)
+    assert sim.particles.v[0, 0] == pytest.approx(-e * v, rel=0.02)
+    assert sim.particles.v[1, 0] == pytest.approx(e * v, rel=0.02)
