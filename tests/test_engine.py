@@ -251,8 +251,9 @@ def test_fast_approach_from_outside_the_skin_is_caught_by_the_list():
     spec = PhysicsSpec(dim=3, contact_law="hertz_mindlin", gravity=False)
     r, skin, v = 1e-3, 2e-4, 0.25
     e = 0.8
-    sim = Simulation(spec, _table(restitution=e, friction=0.0), x=[[0, 0, 0], [2 * r + 5.5 * skin, 0, 0]],
-                     radius=[r, r], material="m", v=[[v, 0, 0], [-v, 0, 0]], skin=skin)
+    sim = Simulation(spec, _table(restitution=e, friction=0.0),
+                     x=[[0, 0, 0], [2 * r + 5.5 * skin, 0, 0]], radius=[r, r], material="m",
+                     v=[[v, 0, 0], [-v, 0, 0]], skin=skin)
     steps = int(2 * (5.5 * skin / (2 * v)) / sim.dt)  # twice the time to close the gap
     sim.run(steps, chunk=steps)
     assert sim.particles.v[0, 0] == pytest.approx(-e * v, rel=0.02)
