@@ -104,10 +104,11 @@ def build_chunk_runner(spec, law, breakage=None, fluid=None):
 class _Parts:
     """The sub-kernels of one variant, and the chunk runner composed of them.
 
-    The per-block passes are ordinary compiled functions called from the parallel loops, and the
-    small per-particle and per-contact pieces are inlined into them. (numba 0.68 loses writes to
-    arrays reached through a named tuple's attribute inside a ``prange`` body, also when the
-    access sits in an inlined function, so no bundle is opened inside a parallel loop itself.)
+    The per-block passes are ordinary compiled functions (without reference counting, see
+    ``_jit``) called from the parallel loops, and the small per-particle and per-contact pieces
+    are inlined into them. (numba 0.68 loses writes to arrays reached through a named tuple's
+    attribute inside a ``prange`` body, also when the access sits in an inlined function, so no
+    bundle is opened inside a parallel loop itself.)
     """
 
     def __init__(self, spec, law, brk, flu, layout, key):
@@ -129,7 +130,14 @@ class _Parts:
                                f"{self.key}|{fn.__name__}")
 
     def _jit(self, fn):
-        return stable_identity(njit(cache=True, fastmath=FAST)(fn), f"{self.key}|{fn.__name__}")
+        # Without numba's reference counting (NRT): the inlined sub-kernels receive the bundles
+        # per particle and per wall, and each copy of an array costs an atomic incref/decref
+        # that numba's pruning pass cannot remove once the pair splits across branches and
+        # loops (numba issues #2345, #2350): 30-odd pairs per particle made the loop 5x slower
+        # (docs/results/restructure.md). These kernels only read and write arrays they are
+        # handed, which the caller keeps alive; an allocation in them fails to compile.
+        return stable_identity(njit(cache=True, fastmath=FAST, _nrt=False)(fn),
+                               f"{self.key}|{fn.__name__}")
 
     def _parallel(self, fn):
         return stable_identity(njit(parallel=True, cache=True, fastmath=FAST)(fn),
@@ -145,19 +153,20 @@ class _Parts:
         # The parallel passes: a block of particles per iteration. (Their bundles are arguments:
         # numba's parallel lowering needs one definition of a named tuple it hands to the
         # threads, and the contact list and scratch change at list rebuilds.)
+        # (The block index is cast: numba types a prange index int64 when it types the function
+        # and uint64 in the parallel kernel, and each type would compile the block kernel again.)
         def start_pass(n_blocks, t_next, dt, P, B):
             for blk in prange(n_blocks):
-                start_block(blk, t_next, dt, P, B)
+                start_block(np.int64(blk), t_next, dt, P, B)
 
         def pair_pass(n_blocks, step, dt, P, C, R, err, S, bs, fp):
             for blk in prange(n_blocks):
-                pair_block(blk, step, dt, P, C, R, err, S, bs, fp)
+                pair_block(np.int64(blk), step, dt, P, C, R, err, S, bs, fp)
 
-        def particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2,
-                          prime):
+        def particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
             for blk in prange(n_blocks):
-                particle_block(blk, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2,
-                               prime)
+                particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs, fp,
+                               half_skin2)
 
         start_pass, pair_pass = self._parallel(start_pass), self._parallel(pair_pass)
         particle_pass = self._parallel(particle_pass)
@@ -197,8 +206,9 @@ class _Parts:
                 # The forces of the start state (a run that starts in contact or inside a fluid
                 # film): the first drift uses them. dt = 0 evaluates without advancing springs.
                 pair_pass(n_blocks, step0, 0.0, P, C, R, err, S, bs, fp)
-                particle_pass(n_blocks, 0, True, t, 0.0, P, C, W, B, R, err, S, bs, fp, half_skin2,
-                              True)
+                # (Run-time values, not literals: a literal argument compiles another variant.)
+                particle_pass(n_blocks, np.int64(0), prime, t, 0.0, P, C, W, B, R, err, S, bs, fp,
+                              half_skin2)
                 for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
                     power = 0.0
                     for blk in range(n_blocks):
@@ -219,8 +229,7 @@ class _Parts:
             for step in range(n_steps):
                 pair_pass(n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
-                particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2,
-                              False)
+                particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2)
                 if stop[0] != 0 and not last:
                     # A particle broke in the particle pass, after ``last`` was decided, so every
                     # particle has already started the next step: take that back, so that the
@@ -408,7 +417,8 @@ def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
     WALLS, PRESSURE = spec.walls, spec.normal_force_sum
     decide = brk.particle_decide
 
-    def particle_block(blk, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2, prime):
+    def particle_block(blk, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
+        prime = dt == 0.0  # the start state's forces: nothing advances (see run_chunk)
         x, x_ref = P.x, P.x_ref
         stop, rebuild = S.stop, S.rebuild
         for i in range(blk * BLOCK, min(x.shape[0], (blk + 1) * BLOCK)):
