@@ -25,8 +25,10 @@ run: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES)
 	$(BIN)/snakemake --report results/report.html
 
+# Test files in parallel, one worker per core (compiling each physics variant dominates; the
+# workers share the on-disk kernel cache).
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist worksteal
 
 bench: $(STAMP)
 	$(BIN)/python bench/engine_throughput.py --case box --cores 1 --json bench/out/box_1.json

@@ -177,7 +177,11 @@ class _Parts:
             start, nbr, state, rev_start, rev_slot = build_verlet(
                 P.x, P.radius, P.body, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
                 C.start, C.nbr, C.state)
-            P.x_ref[:, :] = P.x
+            # (A loop, not x_ref[:, :] = x: the slice copy compiles a shape-mismatch error path
+            # with string formatting, ~4 s of compile time for every variant.)
+            for i in range(P.x.shape[0]):
+                for a in range(3):
+                    P.x_ref[i, a] = P.x[i, a]
             return ContactList(start, nbr, state, rev_start, rev_slot)
 
         def moved_beyond(x, x_ref, half_skin2):
