@@ -1,6 +1,7 @@
 """Compile seconds per compiled function of one `millsim run` (numba's compile events).
 
-    NUMBA_CACHE_DIR=$(mktemp -d) PYTHONPATH=TREE/src python bench/compile_time.py run SCENE --set k=v ...
+    NUMBA_CACHE_DIR=$(mktemp -d) PYTHONPATH=TREE/src \
+        python bench/compile_time.py run SCENE --set k=v ...
 
 Runs the command in this process with a listener on numba's ``numba:compile`` event and prints,
 to stderr, the process's wall time and the compile seconds of the 15 most expensive functions
@@ -27,7 +28,8 @@ class CompileTimer(event.Listener):
 
     def on_end(self, ev):
         key = id(ev.data["dispatcher"]), str(ev.data["args"])
-        SECONDS[ev.data["dispatcher"].py_func.__qualname__] += time.perf_counter() - self.started.pop(key)
+        elapsed = time.perf_counter() - self.started.pop(key)
+        SECONDS[ev.data["dispatcher"].py_func.__qualname__] += elapsed
 
 
 def main(argv):
