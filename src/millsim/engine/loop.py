@@ -184,6 +184,13 @@ class _Parts:
                     P.x_ref[i, a] = P.x[i, a]
             return ContactList(start, nbr, state, rev_start, rev_slot)
 
+        def slot_scratch(C, wall_part, audit_part, stop, rebuild):
+            """Per-slot records (see Layout) and rolling torques for the slots of list C, with the
+            chunk's partial sums and flags."""
+            slots = C.nbr.shape[0]
+            return Scratch(np.empty((slots, SLOT)), np.empty((slots if ROLLING else 0, 2, 3)),
+                           wall_part, audit_part, stop, rebuild)
+
         def moved_beyond(x, x_ref, half_skin2):
             for i in range(x.shape[0]):
                 d0 = x[i, 0] - x_ref[i, 0]
@@ -202,10 +209,7 @@ class _Parts:
             stop = np.zeros(1, dtype=np.int64)  # a breakage decision ends the chunk at this step
             wall_part = np.zeros((n_blocks, max(W.table.shape[0], 1), 7))
             audit_part = np.zeros((n_blocks if AUDIT else 0, N_AUDIT))
-            # Per-slot records (see Layout) and the rolling torques on i and j of each slot.
-            slots = C.nbr.shape[0]
-            S = Scratch(np.empty((slots, SLOT)), np.empty((slots if ROLLING else 0, 2, 3)),
-                        wall_part, audit_part, stop, rebuild)
+            S = slot_scratch(C, wall_part, audit_part, stop, rebuild)
             if prime:
                 # The forces of the start state (a run that starts in contact or inside a fluid
                 # film): the first drift uses them. dt = 0 evaluates without advancing springs.
@@ -225,15 +229,14 @@ class _Parts:
                 # the last chunk ended on a step that asked for a list rebuild: do it now, before
                 # any pair is evaluated (a list older than half a skin of travel can miss pairs)
                 C = rebuilt(P, C, R)
-                S = Scratch(np.empty((C.nbr.shape[0], SLOT)),
-                            np.empty((C.nbr.shape[0] if ROLLING else 0, 2, 3)),
-                            wall_part, audit_part, stop, rebuild)
+                S = slot_scratch(C, wall_part, audit_part, stop, rebuild)
                 counters[0] += 1
             steps_done = 0
             for step in range(n_steps):
                 pair_pass(n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
-                particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2)
+                particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp,
+                              half_skin2)
                 if stop[0] != 0 and not last:
                     # A particle broke in the particle pass, after ``last`` was decided, so every
                     # particle has already started the next step: take that back, so that the
@@ -251,15 +254,14 @@ class _Parts:
                 if rebuild[0] != 0 and not last:
                     C = rebuilt(P, C, R)
                     rebuild[0] = 0
-                    S = Scratch(np.empty((C.nbr.shape[0], SLOT)),
-                                np.empty((C.nbr.shape[0] if ROLLING else 0, 2, 3)),
-                                wall_part, audit_part, stop, rebuild)
+                    S = slot_scratch(C, wall_part, audit_part, stop, rebuild)
                     counters[0] += 1
             counters[1] += steps_done
             return steps_done, C, events
 
         rebuilt = stable_identity(njit(cache=True)(rebuilt), f"{self.key}|rebuilt")
         moved_beyond = stable_identity(njit(cache=True)(moved_beyond), f"{self.key}|moved_beyond")
+        slot_scratch = stable_identity(njit(cache=True)(slot_scratch), f"{self.key}|slot_scratch")
         return stable_identity(njit(cache=True, fastmath=FAST)(run_chunk), f"{self.key}|run_chunk")
 
 
