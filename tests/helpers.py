@@ -18,3 +18,24 @@ def random_gas(n, box, radius_range, rng, dim=3):
         x.append(xi)
         r.append(ri)
     return np.array(x), np.array(r)
+
+
+def clipped_linear_restitution(zeta):
+    """Head-on restitution of a linear spring-dashpot of damping ratio zeta < 1 whose force is
+    clipped at zero (Schwager & Poeschel 2007): in units of w0, x = e^{-zeta t} sin(w t) / w; the
+    force x + 2 zeta x' vanishes first at w t_c = pi - atan2(2 zeta w, w^2 - zeta^2), where
+    x' = -e^{-zeta t_c}: e = exp(-zeta t_c)."""
+    import math
+
+    w = math.sqrt(1.0 - zeta * zeta)
+    return math.exp(-zeta * (math.pi - math.atan2(2.0 * zeta * w, w * w - zeta * zeta)) / w)
+
+
+def clipped_damping_ratio(e):
+    """The damping ratio of the linear laws for restitution e in the engine's default (clipped)
+    convention, inverted here from the closed form above (valid for e > exp(-2) = 0.135)."""
+    from scipy.optimize import brentq
+
+    if e >= 1.0:
+        return 0.0
+    return brentq(lambda z: clipped_linear_restitution(z) - e, 0.0, 1.0 - 1e-12, xtol=1e-15)

@@ -15,19 +15,19 @@ def run_collision(**overrides):
     return ds
 
 
-@pytest.mark.parametrize("end_of_contact", ["force", "overlap"])
+@pytest.mark.parametrize("convention", ["clipped", "unclipped"])
 @pytest.mark.parametrize("target", ["particle", "wall"])
-def test_linear_hw_restitution_and_contact_time(end_of_contact, target):
+def test_linear_hw_restitution_and_contact_time(convention, target):
     """Seed 000 law, 2D disks: e and t_c for both end-of-contact conventions."""
-    ds = run_collision(contact_law="linear_hw", dim=2, end_of_contact=end_of_contact, target=target)
+    ds = run_collision(contact_law="linear_hw", dim=2, convention=convention, target=target)
     assert float(ds.restitution) == pytest.approx(float(ds.restitution_analytic), rel=TOL)
     assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
 
 
 def test_linear_conventions_differ_as_predicted():
     """Clipping the force ends the contact earlier and gives a larger e (Schwager & Poeschel)."""
-    a = run_collision(contact_law="linear_hw", dim=2, end_of_contact="overlap")
-    b = run_collision(contact_law="linear_hw", dim=2, end_of_contact="force")
+    a = run_collision(contact_law="linear_hw", dim=2, convention="unclipped")
+    b = run_collision(contact_law="linear_hw", dim=2, convention="clipped")
     assert float(b.contact_time) < float(a.contact_time)
     assert float(b.restitution) > float(a.restitution)
 
@@ -35,11 +35,11 @@ def test_linear_conventions_differ_as_predicted():
 def test_seed000_numbers_for_1cm_disks():
     """Independent numbers of ballmill.md table 5: R = 1 cm, rho = 2 g/cm3, unit thickness, pair."""
     ds = run_collision(contact_law="linear_hw", dim=2, radius=0.01, density=2000.0, thickness=0.01,
-                       normal_stiffness=8e3, normal_damping_rate=800.0, end_of_contact="overlap")
+                       normal_stiffness=8e3, normal_damping_rate=800.0, convention="unclipped")
     assert float(ds.contact_time) == pytest.approx(2.034e-3, rel=2e-3)
     assert float(ds.restitution) == pytest.approx(0.443, rel=2e-3)
     ds = run_collision(contact_law="linear_hw", dim=2, radius=0.01, density=2000.0, thickness=0.01,
-                       normal_stiffness=8e3, normal_damping_rate=800.0, end_of_contact="force")
+                       normal_stiffness=8e3, normal_damping_rate=800.0, convention="clipped")
     assert float(ds.contact_time) == pytest.approx(1.706e-3, rel=2e-3)
     assert float(ds.restitution) == pytest.approx(0.506, rel=2e-3)
 
@@ -64,17 +64,9 @@ def test_hertz_elastic_contact_time():
 
 
 @pytest.mark.parametrize("restitution", [0.3, 0.5, 0.9])
-def test_hertz_restitution_unclipped_equals_input(restitution):
-    """The EDEM damping law returns the input e when the force may turn attractive."""
-    ds = run_collision(contact_law="hertz_mindlin", restitution=restitution, end_of_contact="overlap",
-                       target="wall")
-    assert float(ds.restitution) == pytest.approx(restitution, rel=TOL)
-
-
-@pytest.mark.parametrize("restitution", [0.3, 0.5, 0.9])
-def test_hertz_restitution_clipped_matches_model_ode(restitution):
+def test_hertz_clipped_contact_time_and_speed_independence(restitution):
+    """The restitution itself: tests/test_restitution.py."""
     ds = run_collision(contact_law="hertz_mindlin", restitution=restitution)
-    assert float(ds.restitution) == pytest.approx(float(ds.restitution_analytic), rel=TOL)
     assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
     # Independent of impact speed (a property of this damping law).
     fast = run_collision(contact_law="hertz_mindlin", restitution=restitution, speed=4.0)

@@ -10,6 +10,7 @@ Only PhysicsSpec variants that other tests already compile are used, so this fil
 compilation to the suite.
 """
 
+import functools
 import math
 
 import numpy as np
@@ -85,9 +86,32 @@ def hertz_overlap(force, es, r_eff):
 
 def edem_damping(restitution):
     """EDEM's 2 sqrt(5/6) |beta|, beta = ln e / sqrt(ln^2 e + pi^2) (EDEM theory reference
-    guide, Hertz-Mindlin no-slip model)."""
+    guide, Hertz-Mindlin no-slip model): head-on e when the force may pull at the end."""
     ln_e = math.log(restitution)
     return 2.0 * math.sqrt(5.0 / 6.0) * (-ln_e) / math.sqrt(ln_e**2 + math.pi**2)
+
+
+@functools.lru_cache(maxsize=None)
+def clipped_damping(restitution):
+    """The damping factor (as edem_damping's) for which the head-on collision with the force
+    clipped at zero returns e, the engine's default convention: inverted here by brentq on an
+    RK45 solution of the normal ODE in units where E* = R* = m* = v = 1 (e depends on the
+    damping factor only)."""
+    if restitution >= 1.0:
+        return 0.0
+
+    def e_of(c):
+        def fn(y):
+            a = math.sqrt(max(y[0], 0.0))
+            return 4.0 / 3.0 * a * max(y[0], 0.0) + c * math.sqrt(2.0 * a) * y[1]
+
+        end = lambda _, y: fn(y)
+        end.terminal, end.direction = True, -1
+        sol = solve_ivp(lambda _, y: [y[1], -max(fn(y), 0.0)], (0, 100), [1e-12, 1.0],
+                        events=end, rtol=1e-11, atol=1e-14)
+        return -sol.y_events[0][0][1]
+
+    return brentq(lambda c: e_of(c) - restitution, edem_damping(restitution), 50.0, xtol=1e-12)
 
 
 def mindlin_impact(*, r_i, r_j, m_i, m_j, es, gs, restitution, mu, v_n, v_t, w_i=0.0, w_j=0.0,
@@ -117,7 +141,7 @@ def mindlin_impact(*, r_i, r_j, m_i, m_j, es, gs, restitution, mu, v_n, v_t, w_i
     r_eff = r_i if wall else r_i * r_j / (r_i + r_j)
     inv_ii = 1.0 / (0.4 * m_i * r_i**2)
     inv_ij = 0.0 if wall else 1.0 / (0.4 * m_j * r_j**2)
-    cb = edem_damping(restitution)
+    cb = clipped_damping(restitution)
     damped = cb > 0.0
     eps = 1e-9 * math.hypot(v_n, v_t)
 
@@ -500,8 +524,8 @@ def _head_on(sim, pairs, n_steps):
 def test_linear_pair_restitution_and_contact_time(law):
     """Head-on collisions of unequal spheres (disks for linear_hw) with the force clipped at
     zero: e and t_c against the closed form above, with m* = m1 m2 / (m1 + m2) of the unequal
-    masses. linear_history takes its damping ratio from e (overlap-end convention):
-    zeta = -ln e / sqrt(pi^2 + ln^2 e), beta = zeta w0; linear_hw has beta = gamma_n / 2.
+    masses. linear_history must return the asked e (the engine's default convention; its
+    damping ratio is inverted here from the closed form); linear_hw has beta = gamma_n / 2.
     Tolerance 0.2 %: 2000 steps per contact, interpolated start and end."""
     r1, r2, k_n = 1.0e-3, 1.5e-3, 5000.0
     if law == "linear_history":
@@ -526,11 +550,13 @@ def test_linear_pair_restitution_and_contact_time(law):
     refs = []
     for value in es:
         if law == "linear_history":
-            ln_e = math.log(value)
-            beta = -ln_e / math.sqrt(math.pi**2 + ln_e**2) * w0
+            zeta = brentq(lambda z: linear_clipped_collision(k_n, m_eff, z * w0)[0] - value,
+                          0.0, 0.99, xtol=1e-14)
+            e_ref, t_ref = linear_clipped_collision(k_n, m_eff, zeta * w0)
+            assert e_ref == pytest.approx(value, rel=1e-9)
+            refs.append((value, t_ref))
         else:
-            beta = value / 2
-        refs.append(linear_clipped_collision(k_n, m_eff, beta))
+            refs.append(linear_clipped_collision(k_n, m_eff, value / 2))
     v_in, t_gap = 0.5, 2e-5
     z = 0.01 if dim == 3 else 0.0
     x = [[0.004, 0.005, z], [0.004 + r1 + r2 + v_in * t_gap, 0.005, z],

@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from helpers import clipped_damping_ratio
 from millsim.engine import PhysicsSpec, Simulation
 from millsim.models import Interaction, Lubrication, Material, MaterialTable
 from millsim.models.lubrication import lubrication_dt_limit
@@ -484,7 +485,7 @@ def test_lubrication_dt_limit_is_the_compiled_integrators_boundary(integrator, c
     its normal motion is exactly linear: x'' = -lambda_k x - lambda_c x' with
     lambda_c = 2 X_w(h_min)/m (+ the two dashpots 2 * 2 zeta sqrt(k/m)) and lambda_k = 2 k/m
     when it is pressed into both planes by 0.2 um (spring cases), X_w coded here
-    (lubrication.md 2.5), zeta = -ln e / sqrt(pi^2 + ln^2 e).
+    (lubrication.md 2.5), zeta the clipped convention's (tests/helpers.py, closed form).
 
     lubrication_dt_limit gives dt_stable for lambda_c = (8 X11A(h_min) + X_w(h_min))/m + gamma_n
     and lambda_k = 2 k_n/m (lubrication.md 4.3-4.5). With eta scaled by 2 X_w/(8 X11A + X_w) and
@@ -501,7 +502,7 @@ def test_lubrication_dt_limit_is_the_compiled_integrators_boundary(integrator, c
     h_min = H_MIN * 2 * a
     k_n, e = STABILITY_CASES[case]
     spring = case != "squeeze"
-    zeta = -math.log(e) / math.sqrt(PI**2 + math.log(e) ** 2)
+    zeta = clipped_damping_ratio(e)
     gap = -2e-7 if spring else 0.5 * h_min  # each side
     x_w = wall_scalars(a, h_min)[0]
     x11a = jo84(a, a, h_min)[0]

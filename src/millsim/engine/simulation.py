@@ -127,7 +127,7 @@ class Simulation:
             if model is not None and getattr(model, "kind", None) != kind:
                 raise ValueError(f"{kind}: expected a {kind} model, got {model!r}")
         self.thickness = float(thickness)
-        self.pair_params = table.pair_params()
+        self.pair_params = table.pair_params(spec.convention)
         radius = np.asarray(radius, dtype=float)
         n = len(radius)
         if n == 0:

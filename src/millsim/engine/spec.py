@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 from .integrators import INTEGRATORS
 
+CONVENTIONS = ("clipped", "unclipped")
+
 _RUNNERS = {}
 
 
@@ -20,8 +22,11 @@ class PhysicsSpec:
         integrator: ``verlet`` (velocity Verlet) or ``gear`` (6-value Gear predictor-corrector).
         rolling_friction: EDEM "standard" constant directional rolling torque (a law with a
             rolling-friction coefficient: Hertz-Mindlin).
-        clip_normal: normal force never attractive. Only analytic verification of the textbook
-            "contact ends at zero overlap" convention turns this off.
+        convention: end of a contact. ``clipped`` (default): the normal force never pulls and the
+            contact ends when it reaches zero; ``unclipped``: the force may pull and the contact
+            ends at zero overlap (EDEM, LIGGGHTS ``limitForce off``, MercuryDPM; for cross-code
+            comparisons). Either way the damping is set so that a head-on collision returns the
+            asked restitution (``models.materials``).
         gravity, walls, bodies, periodic: whether those terms exist at all.
         normal_force_sum: keep each particle's sum of contact normal forces (pressure maps,
             force chains).
@@ -32,7 +37,7 @@ class PhysicsSpec:
     dim: int = 3
     integrator: str = "verlet"
     rolling_friction: bool = False
-    clip_normal: bool = True
+    convention: str = "clipped"
     gravity: bool = True
     walls: bool = False
     bodies: bool = False
@@ -45,6 +50,12 @@ class PhysicsSpec:
             raise ValueError(f"dim: must be 2 or 3, got {self.dim}")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator: must be one of {INTEGRATORS}, got {self.integrator!r}")
+        if self.convention not in CONVENTIONS:
+            raise ValueError(f"convention: must be one of {CONVENTIONS}, got {self.convention!r}")
+
+    @property
+    def clip_normal(self):
+        return self.convention == "clipped"
 
 
 def chunk_runner(spec, law, breakage=None, fluid=None):

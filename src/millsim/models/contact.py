@@ -1,7 +1,8 @@
 """Contact laws: pure per-contact functions compiled into the step loop, and their time-step bounds.
 
 Every law receives the contact geometry and kinematics of one contact and returns the normal force
-magnitude (never attractive unless the caller asks for the unclipped textbook variant) and the
+magnitude (never attractive unless the spec's convention is ``unclipped``, where the Coulomb limit
+takes |F_n| as EDEM and LIGGGHTS do) and the
 tangential force vector acting on body ``i``. The caller turns these into forces and torques on both
 bodies, so the same law serves particle-particle and particle-wall contacts (for a wall, m_eff = m_i
 and r_eff = r_i).
@@ -62,9 +63,9 @@ def linear_hw(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip):
     if clip and fn < 0.0:
         fn = 0.0
     vt = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-    if vt == 0.0 or fn <= 0.0:
+    if vt == 0.0 or fn == 0.0:
         return fn, 0.0, 0.0, 0.0
-    ft = min(m_eff * p[P_GAMMA_T] * vt, p[P_MU_HW] * fn)
+    ft = min(m_eff * p[P_GAMMA_T] * vt, p[P_MU_HW] * abs(fn))  # |F_n|: an unclipped pull too
     s = -ft / vt
     return fn, s * t0, s * t1, s * t2
 
@@ -122,7 +123,7 @@ def linear_history(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip, hist, k, dt):
     if clip and fn < 0.0:
         fn = 0.0
     ct = 2.0 * p[P_ZETA_T] * math.sqrt(m_eff * kt)
-    f0, f1, f2 = _spring_friction(kt, ct, p[P_MU_LIN] * fn, t0, t1, t2, n0, n1, n2, hist, k, dt)
+    f0, f1, f2 = _spring_friction(kt, ct, p[P_MU_LIN] * abs(fn), t0, t1, t2, n0, n1, n2, hist, k, dt)
     return fn, f0, f1, f2
 
 
@@ -141,7 +142,7 @@ def hertz_mindlin(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt
         fn = 0.0
     st = 8.0 * p[P_G_STAR] * a
     ct = p[P_SQRT_8G] * sam
-    f0, f1, f2 = _spring_friction(st, ct, p[P_MU_HM] * fn, t0, t1, t2, n0, n1, n2, hist, k, dt)
+    f0, f1, f2 = _spring_friction(st, ct, p[P_MU_HM] * abs(fn), t0, t1, t2, n0, n1, n2, hist, k, dt)
     return fn, f0, f1, f2, fn_el
 
 

@@ -6,11 +6,15 @@ range, so that bad input fails before any compilation or simulation starts.
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
+from scipy.optimize import brentq
 
+from ..engine.spec import CONVENTIONS
 from ..util.validation import check_range
 from . import contact as law
+from .contact import TWO_SQRT_5_6
 
 
 @dataclass(frozen=True)
@@ -67,12 +71,90 @@ class Interaction:
                         lo_open=True)
 
 
-def damping_ratio(restitution):
-    """Damping ratio zeta of a linear oscillator whose restitution (zero-overlap end) is e."""
+# Two conventions for the end of a contact (``PhysicsSpec.convention``); in both, a head-on
+# collision of the pair returns the restitution asked for.
+# - ``clipped`` (default): the normal force never pulls, the contact ends when it reaches zero,
+#   before the overlap does. The damping is solved for once per restitution from the clipped
+#   relation (closed form for the linear laws, one ODE root for Hertz).
+# - ``unclipped``: the force may pull at the end (EDEM, LIGGGHTS ``limitForce off``, MercuryDPM),
+#   the contact ends at zero overlap; the damping is the textbook one of those codes.
+
+
+def linear_restitution(zeta, clipped):
+    """Restitution of a head-on collision with a linear spring-dashpot of damping ratio zeta.
+
+    Unclipped: e = exp(-pi zeta / sqrt(1 - zeta^2)). Clipped (Schwager & Poeschel 2007, Granular
+    Matter 9, 465): the force k x + c x' reaches zero first at t_c and e = exp(-beta t_c) for
+    zeta < 1; for zeta >= 1 the two decay rates l1 < l2 of the overdamped oscillator give
+    t_c = ln(l2 / l1) / (l2 - l1) * 2 / 2 and e = (l1 / l2)^(1 + 2 l1 / (l2 - l1)).
+    """
+    if zeta <= 0.0:
+        return 1.0
+    if not clipped:
+        return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta)) if zeta < 1.0 else 0.0
+    if zeta < 1.0:  # units of w0 = 1
+        w = math.sqrt(1.0 - zeta * zeta)
+        t_c = (math.pi - math.atan2(2.0 * zeta * w, w * w - zeta * zeta)) / w
+        return math.exp(-zeta * t_c)
+    if zeta == 1.0:
+        return math.exp(-2.0)  # the limit of both branches
+    root = math.sqrt(zeta * zeta - 1.0)
+    l1, l2 = zeta - root, zeta + root
+    return (l1 / l2) ** (1.0 + 2.0 * l1 / (l2 - l1))
+
+
+@lru_cache(maxsize=None)
+def damping_ratio(restitution, convention="clipped"):
+    """Damping ratio zeta of the linear laws whose head-on restitution is ``restitution``."""
     if restitution >= 1.0:
         return 0.0
     ln_e = math.log(restitution)
-    return -ln_e / math.sqrt(math.pi**2 + ln_e**2)
+    unclipped = -ln_e / math.sqrt(math.pi**2 + ln_e**2)
+    if convention == "unclipped":
+        return unclipped
+    # the clipped contact ends earlier and returns more: zeta lies above the unclipped one
+    return brentq(lambda z: math.log(linear_restitution(z, True)) - ln_e, unclipped, 100.0,
+                  xtol=1e-15, rtol=1e-15)
+
+
+def hertz_restitution(beta_term, clipped):
+    """Restitution of the Hertz law with EDEM damping 2 sqrt(5/6) |beta| sqrt(S_n m*) = beta_term
+    sqrt(S_n m*), from its normal ODE (DOP853, rtol 1e-11). With this damping form e depends on
+    beta only, not on speed, masses, radii or moduli, so the ODE runs in units where all are 1:
+    x'' = -(4/3) x^(3/2) - sqrt(2) beta_term x^(1/4) x'."""
+    from scipy.integrate import solve_ivp
+
+    root2 = math.sqrt(2.0)
+
+    def force(y):
+        a = math.sqrt(max(y[0], 0.0))
+        return (4.0 / 3.0) * a * a * a + root2 * beta_term * math.sqrt(a) * y[1]
+
+    def rhs(_, y):
+        f = force(y)
+        return [y[1], -(max(f, 0.0) if clipped else f)]
+
+    end = (lambda _, y: force(y)) if clipped else (lambda _, y: y[0])
+    end.terminal, end.direction = True, -1
+    sol = solve_ivp(rhs, (0.0, 100.0), [1e-14, 1.0], events=end, method="DOP853", rtol=1e-11,
+                    atol=1e-14)
+    return -float(sol.y_events[0][0][1])
+
+
+@lru_cache(maxsize=None)
+def hertz_beta_term(restitution, convention="clipped"):
+    """The damping factor 2 sqrt(5/6) |beta| of the Hertz law whose head-on restitution is
+    ``restitution``. Unclipped: EDEM's beta = ln e / sqrt(ln^2 e + pi^2), for which the
+    attractive-end ODE returns e exactly (Antypov & Elliott 2011, EPL 94, 50004). Clipped: the
+    root of the clipped ODE's e(beta) (monotone; it has no closed form), found once per value."""
+    if restitution >= 1.0:
+        return 0.0
+    ln_e = math.log(restitution)
+    unclipped = -TWO_SQRT_5_6 * ln_e / math.sqrt(ln_e**2 + math.pi**2)
+    if convention == "unclipped":
+        return unclipped
+    return brentq(lambda b: math.log(hertz_restitution(b, True)) - ln_e, unclipped, 100.0,
+                  xtol=1e-13, rtol=1e-12)
 
 
 def effective_moduli(a: Material, b: Material):
@@ -109,17 +191,21 @@ class MaterialTable:
                 return self.interactions[key]
         raise ValueError(f"interaction[{a}, {b}]: not defined (give it, or a default under '*')")
 
-    def pair_params(self) -> np.ndarray:
+    def pair_params(self, convention="clipped") -> np.ndarray:
+        """Parameter rows of every material pair; the damping is set so that a head-on collision
+        returns the pair's restitution in the given end-of-contact convention."""
+        if convention not in CONVENTIONS:
+            raise ValueError(f"convention: must be one of {CONVENTIONS}, got {convention!r}")
         n = len(self.materials)
         table = np.zeros((n, n, law.N_PARAMS))
         for i, a in enumerate(self.materials):
             for j, b in enumerate(self.materials):
                 inter = self.interaction(a.name, b.name)
                 inter.validate((a.name, b.name), self.contact_law)
-                table[i, j] = self._row(a, b, inter)
+                table[i, j] = self._row(a, b, inter, convention)
         return table
 
-    def _row(self, a, b, inter):
+    def _row(self, a, b, inter, convention):
         row = np.zeros(law.N_PARAMS)
         if self.contact_law == "linear_hw":
             row[law.P_K_N] = inter.normal_stiffness
@@ -127,7 +213,7 @@ class MaterialTable:
             row[law.P_GAMMA_T] = inter.tangential_damping_rate
             row[law.P_MU_HW] = inter.friction
         elif self.contact_law == "linear_history":
-            zeta = damping_ratio(inter.restitution)
+            zeta = damping_ratio(inter.restitution, convention)
             row[law.P_K_N] = inter.normal_stiffness
             row[law.P_K_T] = inter.normal_stiffness * inter.tangential_stiffness_ratio
             row[law.P_ZETA_N] = zeta
@@ -138,11 +224,9 @@ class MaterialTable:
                 if math.isnan(m.youngs_modulus):
                     raise ValueError(f"{m.name}.youngs_modulus: required by hertz_mindlin")
             e_star, g_star = effective_moduli(a, b)
-            ln_e = math.log(inter.restitution)
-            beta = ln_e / math.sqrt(ln_e**2 + math.pi**2)
             row[law.P_E_STAR] = e_star
             row[law.P_G_STAR] = g_star
-            row[law.P_BETA_TERM] = -law.TWO_SQRT_5_6 * beta
+            row[law.P_BETA_TERM] = hertz_beta_term(inter.restitution, convention)
             row[law.P_MU_HM] = inter.friction
             row[law.P_MU_ROLL] = inter.rolling_friction
             row[law.P_SQRT_2E] = math.sqrt(2.0 * e_star)

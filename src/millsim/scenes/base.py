@@ -119,6 +119,12 @@ SOLID_PARAMS = (
     Param("friction", 0.3, "sliding friction coefficient", "1", 0.0),
 )
 
+# End of a contact: the restitution is what a head-on collision returns in either convention.
+CONVENTION_PARAM = Param(
+    "convention", "clipped", "clipped: the normal force never pulls (physical); unclipped: it may "
+    "pull, the contact ends at zero overlap (EDEM, LIGGGHTS limitForce off, MercuryDPM)",
+    choices=("clipped", "unclipped"))
+
 
 # Every scene takes the engine's time-step policy (engine.timestep): a factor on the recommended
 # step of the particles present, or an absolute step.

@@ -1,11 +1,12 @@
 """Scene ``collision``: one binary impact (two particles, or a particle on a wall).
 
-The engine-level check against analytic contact mechanics: for the linear laws the coefficient of
-restitution and contact time are known in closed form for both end-of-contact conventions
-(ballmill.md section 5), for Hertz the elastic contact time (2.9433 xi_max / v) and, by construction
-of the EDEM damping law, the restitution coefficient when the force may turn attractive; with the
-physical clipped force the reference is a high-accuracy scipy solution of the same normal ODE. The scene writes the measured and the analytic
-values side by side, and the per-step overlap, normal force and relative normal velocity.
+The engine-level check against analytic contact mechanics. The restitution the interaction asks
+for is what a head-on collision must return in both end-of-contact conventions (linear_history,
+hertz_mindlin); linear_hw's follows from seed 000's damping rate in closed form. Contact times:
+closed form for the linear laws (ballmill.md section 5, Schwager & Poeschel 2007), 2.9433 xi_max / v
+for elastic Hertz, a scipy solution of the damped Hertz normal ODE otherwise. The scene writes the
+measured and the reference values side by side, and the per-step overlap, normal force and
+relative normal velocity.
 """
 
 import math
@@ -16,9 +17,9 @@ import numpy as np
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.state import disk_or_sphere_mass
 from ..models import Interaction, Material, MaterialTable
-from ..models.contact import TWO_SQRT_5_6
-from ..models.materials import damping_ratio, effective_moduli
-from .base import SOLID_PARAMS, TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from ..models.materials import (damping_ratio, effective_moduli, hertz_beta_term,
+                                linear_restitution)
+from .base import CONVENTION_PARAM, SOLID_PARAMS, TIME_STEP_PARAMS, Param, Scene, register, step_policy
 from .driver import Case, Series
 
 HERTZ_TIME_FACTOR = 2.9433  # t_c = 2 (xi_max / v) int_0^1 dx / sqrt(1 - x^(5/2))
@@ -28,9 +29,7 @@ PARAMS = (
     Param("dim", 3, "2 (disks) or 3 (spheres)", choices=(2, 3)),
     Param("target", "particle", "impact partner", choices=("particle", "wall")),
     Param("integrator", "verlet", "time integrator", choices=("verlet", "gear")),
-    Param("end_of_contact", "force", "force: normal force clipped at zero (physical); overlap: "
-          "unclipped, contact ends at zero overlap (textbook convention, verification only)",
-          choices=("force", "overlap")),
+    CONVENTION_PARAM,
     *SOLID_PARAMS,
     Param("normal_stiffness", 8e3, "linear spring constant (seed 000: Y = 8e6 g s-2)", "N m-1", 0.0, lo_open=True),
     Param("normal_damping_rate", 800.0, "seed 000 gamma_N (linear_hw)", "s-1", 0.0),
@@ -46,23 +45,27 @@ PARAMS = (
 
 
 def analytic(values):
-    """Analytic (restitution, contact time) for the chosen law and convention, NaN where none."""
+    """Reference (restitution, contact time) of a head-on impact for the law and convention.
+
+    linear_hw takes seed 000's damping rate, so its restitution is a result: closed form for both
+    conventions. linear_history and hertz_mindlin take a restitution, which a head-on collision
+    returns by construction of their damping (``models.materials``); the contact time is the
+    closed form of the linear oscillator, or the Hertz normal ODE solved by scipy.
+    """
     law = values["contact_law"]
+    clipped = values["convention"] == "clipped"
     m = disk_or_sphere_mass(values["radius"], values["density"], values["dim"], values["thickness"])
     m_eff = float(m if values["target"] == "wall" else m / 2)
     if law in ("linear_hw", "linear_history"):
-        k = values["normal_stiffness"]
-        w0 = math.sqrt(k / m_eff)
+        w0 = math.sqrt(values["normal_stiffness"] / m_eff)
         if law == "linear_hw":
             beta = values["normal_damping_rate"] / 2.0
         else:
-            beta = damping_ratio(values["restitution"]) * w0
-        w = math.sqrt(w0 * w0 - beta * beta)
-        if values["end_of_contact"] == "overlap":
-            t_c = math.pi / w
-        else:  # force reaches zero first (Schwager & Poeschel 2007)
-            t_c = (math.pi - math.atan2(2 * beta * w, w * w - beta * beta)) / w
-        return math.exp(-beta * t_c), t_c
+            beta = damping_ratio(values["restitution"], values["convention"]) * w0
+        t_c = linear_collision_time(w0, beta, clipped)
+        if law == "linear_hw":
+            return linear_restitution(beta / w0, clipped), t_c
+        return values["restitution"], t_c
     mat = Material("p", values["density"], values["youngs_modulus"], values["poisson_ratio"])
     e_star, _ = effective_moduli(mat, mat)
     # Rigid wall of the same material constants, or an identical partner.
@@ -71,26 +74,35 @@ def analytic(values):
     if values["restitution"] == 1.0:
         xi_max = (15 * m_eff * v * v / (16 * e_star * math.sqrt(r_eff))) ** 0.4
         return 1.0, HERTZ_TIME_FACTOR * xi_max / v
-    return hertz_reference(m_eff, r_eff, e_star, values["restitution"], v,
-                           values["end_of_contact"] == "force")
+    beta_term = hertz_beta_term(values["restitution"], values["convention"])
+    return values["restitution"], hertz_reference(m_eff, r_eff, e_star, beta_term, v, clipped)[1]
 
 
-def hertz_reference(m_eff, r_eff, e_star, restitution, speed, clip):
-    """Restitution and contact time of the damped Hertz normal ODE, solved by scipy at rtol 1e-11.
+def linear_collision_time(w0, beta, clipped):
+    """Contact time of a linear spring-dashpot (damping rate 2 beta): it ends at zero overlap
+    (unclipped) or at zero force (clipped, Schwager & Poeschel 2007), also overdamped."""
+    if beta < w0:
+        w = math.sqrt(w0 * w0 - beta * beta)
+        return (math.pi - (0.0 if not clipped else math.atan2(2 * beta * w, w * w - beta * beta))) / w
+    if not clipped:
+        return math.inf  # an overdamped unclipped contact never reaches zero overlap again
+    if beta == w0:
+        return 2.0 / w0
+    root = math.sqrt(beta * beta - w0 * w0)
+    l1, l2 = beta - root, beta + root
+    return 2.0 * math.log(l2 / l1) / (l2 - l1)
 
-    With the force allowed to turn attractive the EDEM damping law returns exactly the input
-    restitution; clipping the force at zero ends the contact earlier and raises it (by ~10% at
-    e = 0.5), which only this integration of the model equation gives.
-    """
+
+def hertz_reference(m_eff, r_eff, e_star, beta_term, speed, clip):
+    """Restitution and contact time of the damped Hertz normal ODE (damping beta_term sqrt(S_n
+    m_eff)), solved by scipy at rtol 1e-11 in SI units, the contact ending at zero force
+    (clip) or at zero overlap."""
     from scipy.integrate import solve_ivp
-
-    ln_e = math.log(restitution)
-    c = -TWO_SQRT_5_6 * ln_e / math.sqrt(ln_e**2 + math.pi**2)
 
     def force(xi, xi_dot):
         xi = max(xi, 0.0)
         sn = 2.0 * e_star * math.sqrt(r_eff * xi)
-        return (2.0 / 3.0) * sn * xi + c * math.sqrt(sn * m_eff) * xi_dot
+        return (2.0 / 3.0) * sn * xi + beta_term * math.sqrt(sn * m_eff) * xi_dot
 
     def rhs(_, y):
         f = force(y[0], y[1])
@@ -130,7 +142,7 @@ class CollisionCase(Case):
                             tangential_damping_rate=v["tangential_damping_rate"])
         table = MaterialTable([mat], {"*": inter}, law)
         spec = PhysicsSpec(dim=v["dim"], integrator=v["integrator"],
-                           clip_normal=v["end_of_contact"] == "force", gravity=False,
+                           convention=v["convention"], gravity=False,
                            walls=v["target"] == "wall")
         r = self.r = v["radius"]
         gap = 1e-3 * r
@@ -162,7 +174,7 @@ class CollisionCase(Case):
             overlap, vn = 2 * self.r - (p.x[0, 0] - p.x[1, 0]), p.v[0, 0] - p.v[1, 0]
         force = self.m0 * p.acc[0, 0]
         self.record(self.sim.time, overlap=overlap, normal_force=force, normal_velocity=vn)
-        in_contact = overlap > 0 if self.values["end_of_contact"] == "overlap" else (
+        in_contact = overlap > 0 if self.values["convention"] == "unclipped" else (
             force != 0.0 or overlap > 0)
         self.touched |= in_contact
         self.parted = self.touched and not in_contact and overlap < 0
@@ -188,7 +200,7 @@ class CollisionCase(Case):
         # at the first step with zero normal force, depending on the convention.
         k0 = int(np.argmax(overlap > 0))
         t_start = t[k0 - 1] + (t[k0] - t[k0 - 1]) * (-overlap[k0 - 1]) / (overlap[k0] - overlap[k0 - 1])
-        if self.values["end_of_contact"] == "overlap":
+        if self.values["convention"] == "unclipped":
             k1 = k0 + int(np.argmax(overlap[k0:] <= 0))
             t_end = t[k1 - 1] + (t[k1] - t[k1 - 1]) * overlap[k1 - 1] / (overlap[k1 - 1] - overlap[k1])
         else:

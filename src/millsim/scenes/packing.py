@@ -13,7 +13,7 @@ import numpy as np
 
 from ..engine import PhysicsSpec, Simulation, StepPolicy
 from ..models import Interaction, Material, MaterialTable
-from .base import SOLID_PARAMS, Param, Scene, register
+from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, register
 from .driver import Case, Series
 
 PARAMS = (
@@ -21,6 +21,7 @@ PARAMS = (
     Param("container", "box", "box: walled square box open at the top; drum: rotating cylinder",
           choices=("box", "drum")),
     *SOLID_PARAMS,
+    CONVENTION_PARAM,
     Param("rolling_friction", 0.0, "rolling friction coefficient (EDEM standard)", "1", 0.0),
     Param("box_width", 0.044, "box side (box)", "m", 0.0, lo_open=True),
     Param("drum_radius", 0.04, "drum inner radius (drum)", "m", 0.0, lo_open=True),
@@ -99,7 +100,7 @@ def build(values):
                                                    friction=values["friction"],
                                                    rolling_friction=values["rolling_friction"])},
                           "hertz_mindlin")
-    spec = PhysicsSpec(dim=3, integrator=values["integrator"],
+    spec = PhysicsSpec(dim=3, integrator=values["integrator"], convention=values["convention"],
                        rolling_friction=values["rolling_friction"] > 0, walls=True)
     v = w = None
     if values["init_file"]:

@@ -26,6 +26,7 @@ from ..engine.kinematics import CYLINDER_INNER, CYLINDER_OUTER, PLANE
 from ..models import Interaction, Lubrication, Material, MaterialTable
 from ..models.contact import linear_contact_time
 from ..models.lubrication import check_lubrication_params
+from ..models.materials import damping_ratio
 from ..util.stats import block_mean_ci
 from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
 from .driver import Case, Series
@@ -265,7 +266,8 @@ def build(values):
                      fluid=Lubrication(values["eta"], values["h_min"], values["h_max"]) if wet else None,
                      **periodic)
     m_min = values["density"] * 4 / 3 * math.pi * r_min**3
-    t_c, _ = linear_contact_time(k_n, 0.5 * m_min, 2 * _zeta(values) * math.sqrt(k_n / (0.5 * m_min)))
+    zeta = damping_ratio(values["restitution"], spec.convention)
+    t_c, _ = linear_contact_time(k_n, 0.5 * m_min, 2 * zeta * math.sqrt(k_n / (0.5 * m_min)))
     g.update(k_n=k_n, t_c=t_c, n_agitator_particles=nd, agitator_particle_radius=disk_r)
     return sim, g
 
@@ -275,11 +277,6 @@ def physics_spec(periodic):
     lubrication code is compiled)."""
     return PhysicsSpec(dim=3, gravity=True, walls=True, bodies=True, periodic=periodic,
                        energy_audit=True)
-
-
-def _zeta(values):
-    e = values["restitution"]
-    return 0.0 if e >= 1 else -math.log(e) / math.sqrt(math.pi**2 + math.log(e) ** 2)
 
 
 # ---- observables (plain numpy, between chunks) -----------------------------------------------
