@@ -51,8 +51,11 @@ def cmd_run(args):
         raise ValueError(f"--out: must end in .nc, got {str(out)!r}")
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads: must be >= 1, got {args.threads}")
+    if not args.checkpoint_every >= 0:
+        raise ValueError(f"--checkpoint-every: must be >= 0, got {args.checkpoint_every:g}")
     snapshots = SnapshotWriter(args.snapshots, dim=values.get("dim", 3)) if args.snapshots else None
-    ctx = RunContext(progress=not args.quiet, snapshots=snapshots, threads=args.threads)
+    ctx = RunContext(progress=not args.quiet, snapshots=snapshots, threads=args.threads,
+                     checkpoint_every=args.checkpoint_every)
     try:
         _, provenance = scene.run(values, ctx, out=out)
     finally:
@@ -302,6 +305,11 @@ def build_parser():
                    help="threads of the compiled step loop (default: all numba has); systems of "
                         "fewer than 2000 particles run on one thread, which is faster there "
                         "(bench/RESULTS.md, serial fallback); results are identical either way")
+    p.add_argument("--checkpoint-every", type=float, default=600.0, metavar="SECONDS",
+                   help="save the running case to OUT.ckpt at most this often (wall time; 0: "
+                        "save none); the same command resumes from it after an interruption, "
+                        "with the same result, and removes it when the case is written; not "
+                        "with --snapshots (default: 600)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_run)
 

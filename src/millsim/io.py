@@ -1,5 +1,5 @@
-"""netCDF output (one writer for cases, aggregates and analysis results) and optional particle
-snapshots (HDF5 + XDMF).
+"""netCDF output (one writer for cases, aggregates and analysis results), optional particle
+snapshots (HDF5 + XDMF) and the checkpoints of running cases (pickle).
 
 All quantities are SI; every variable carries a CF-style ``units`` attribute ("1" when
 dimensionless). A case's provenance goes into global attributes so that a case file alone says
@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import operator
 import os
+import pickle
 import platform
 import uuid
 import xml.etree.ElementTree as ET
@@ -27,7 +28,8 @@ import xarray as xr
 
 import millsim
 
-__all__ = ["write_netcdf", "write_case", "read_case", "case_parameters", "SnapshotWriter"]
+__all__ = ["write_netcdf", "write_case", "read_case", "case_parameters", "SnapshotWriter",
+           "write_checkpoint", "read_checkpoint"]
 
 # key -> coercion; coercing also rejects e.g. a float seed instead of silently truncating it
 _REQUIRED_PROVENANCE = {
@@ -196,6 +198,54 @@ def case_parameters(ds: xr.Dataset) -> dict[str, Any]:
         return json.loads(ds.attrs["parameters_json"])
     except KeyError:
         raise ValueError("dataset has no 'parameters_json'; not written by write_case") from None
+
+
+class _CheckpointPickler(pickle.Pickler):
+    """Refuses anything of numba's: compiled functions are rebuilt on load, never saved (pickled,
+    a dispatcher would carry its code by value and recompile)."""
+
+    def reducer_override(self, obj: Any) -> Any:
+        if type(obj).__module__.split(".")[0] == "numba":
+            raise TypeError(f"checkpoint: {type(obj).__name__} {obj!r:.60} would be pickled; drop "
+                            "it in its owner's __getstate__")
+        return NotImplemented
+
+
+def write_checkpoint(path: str | os.PathLike[str], key: dict[str, Any], state: Any) -> Path:
+    """Pickle ``state`` to ``path`` atomically, after a header of ``key`` (what the state belongs
+    to, e.g. scene and parameters) and the software versions and engine hash of this process."""
+    path = Path(path)
+    with _atomic_target(path) as tmp:
+        with open(tmp, "wb") as fh:
+            pickle.dump({**key, **_software_attrs()}, fh, protocol=pickle.HIGHEST_PROTOCOL)
+            _CheckpointPickler(fh, protocol=pickle.HIGHEST_PROTOCOL).dump(state)
+            fh.flush()
+            os.fsync(fh.fileno())  # the rename must not land before the data
+    return path
+
+
+def read_checkpoint(path: str | os.PathLike[str], key: dict[str, Any]) -> Any:
+    """The state :func:`write_checkpoint` saved at ``path`` under ``key`` and this process's
+    software and engine hash; ValueError naming the difference when it was saved under others."""
+    expected = {**key, **_software_attrs()}
+    with open(path, "rb") as fh:
+        try:
+            header = pickle.load(fh)
+        except Exception as exc:  # anything pickle raises: a file that is not a checkpoint
+            raise ValueError(f"not a checkpoint ({type(exc).__name__}: {exc})") from None
+        if not isinstance(header, dict):
+            raise ValueError("not a checkpoint (no header)")
+        differ = sorted(k for k in expected.keys() | header.keys()
+                        if k != "parameters" and header.get(k) != expected.get(k))
+        params, theirs = expected.get("parameters", {}), header.get("parameters", {})
+        differ += [f"parameter {k}" for k in sorted(params.keys() | theirs.keys())
+                   if params.get(k) != theirs.get(k)]
+        if differ:
+            raise ValueError(f"written under another {', '.join(differ)}")
+        try:
+            return pickle.load(fh)
+        except Exception as exc:  # same code and versions: only a damaged file gets here
+            raise ValueError(f"unreadable ({type(exc).__name__}: {exc})") from None
 
 
 # XDMF names integer types of one byte Char/UChar and all others Int/UInt

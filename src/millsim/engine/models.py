@@ -184,6 +184,11 @@ class ParticleModel:
         """Called once by the Simulation that owns this model (after particles exist)."""
         self.sim = sim
 
+    def __getstate__(self):
+        # ``fields`` is a tuple of a class made at run time (it does not pickle); the Simulation
+        # publishes it again when it is loaded.
+        return {k: v for k, v in self.__dict__.items() if k != "fields"}
+
     def params(self):
         """The parameters the hooks read (a float64 array)."""
         return np.zeros(0)

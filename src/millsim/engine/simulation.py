@@ -84,13 +84,17 @@ def _vec3(a, n):
 
 def _model_fields(model, n):
     """Fresh per-particle arrays of a model (namedtuple), filled with the declared defaults."""
-    names = list(model.particle_fields)
     arrays = []
-    for name in names:
+    for name in model.particle_fields:
         dtype, fill = model.particle_fields[name]
         shape = (n,) if not isinstance(dtype, tuple) else (n, dtype[1])
         arrays.append(np.full(shape, fill, dtype=dtype[0] if isinstance(dtype, tuple) else dtype))
-    return namedtuple(f"{type(model).__name__}Fields", names)(*arrays)
+    return _fields_tuple(model, arrays)
+
+
+def _fields_tuple(model, arrays):
+    """A model's per-particle arrays as the namedtuple its hooks receive (named by its fields)."""
+    return namedtuple(f"{type(model).__name__}Fields", list(model.particle_fields))(*arrays)
 
 
 class Simulation:
@@ -180,6 +184,22 @@ class Simulation:
         self.dt = self.dt_report.check(self._policy_dt())
         self.wall_seconds = 0.0
         self._forces_current = False  # the start's forces are evaluated before the first step
+
+    # ---- checkpoints (pickle) ------------------------------------------------------------------
+    def __getstate__(self):
+        # The contact law carries its compiled kernel, and the models' field tuples are of a class
+        # made at run time: neither pickles, so both are rebuilt on load from what does.
+        state = self.__dict__.copy()
+        del state["law"]
+        state["_fields"] = {model: tuple(fields) for model, fields in self._fields.items()}
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self.law = self.table.law
+        self._fields = {model: _fields_tuple(model, arrays) for model, arrays in self._fields.items()}
+        for model in self._fields:
+            self._publish(model)
 
     # ---- construction helpers -----------------------------------------------------------------
     def material_index(self, name):

@@ -144,11 +144,13 @@ def step_policy(values, **kw):
 @dataclass
 class RunContext:
     """How a run reports and runs: progress lines on stderr, optional particle snapshots (HDF5 +
-    XDMF), and the numba threads of the compiled loop (None: all)."""
+    XDMF), the numba threads of the compiled loop (None: all), and the wall-time cadence of the
+    checkpoints a run with an output file saves beside it (driver.Checkpoint; 0: none)."""
 
     progress: bool = False
     snapshots: Any = None  # a millsim.io.SnapshotWriter, or None
     threads: int = None
+    checkpoint_every: float = 0.0  # [s]
 
     def snapshot(self, sim):
         """Write one frame of ``sim`` if snapshots were requested."""

@@ -7,7 +7,9 @@ between chunks (``after_chunk``: record, change stage), when it is done (``done`
 (``progress``) and its summaries (``finish``). :func:`drive` does the rest, the same for every
 scene: it runs the compiled chunks with the requested threads, hands breakage decisions to the
 case's handler, prints progress on stderr with an ETA, takes the particle snapshots, assembles the
-dataset and writes the case file (atomically, with the provenance).
+dataset and writes the case file (atomically, with the provenance). A long case saves itself
+between chunks to a checkpoint beside its output (:class:`Checkpoint`), from which the same
+command resumes after an interruption with the same result.
 
 The model is MercuryDPM's ``continueSolve`` / ``actionsAfterTimeStep`` and HOOMD-blue's loggers on
 triggers, with the chunk (tens to thousands of steps, all compiled) as the time step.
@@ -17,6 +19,7 @@ import math
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -130,19 +133,80 @@ class Progress:
         self._say(f"{self.name}: done, {steps} steps in {time.perf_counter() - self.start:.1f} s")
 
     def _say(self, text):
-        print(f"[millsim] {text}", file=self.stream, flush=True)
+        _say(text, self.stream)
+
+
+def _say(text, stream=None):
+    print(f"[millsim] {text}", file=stream or sys.stderr, flush=True)
+
+
+class Checkpoint:
+    """The whole state of a running case (its :class:`Case`, Simulation included, and the
+    driver's counts), saved atomically to ``<out>.ckpt`` at most every ``every`` seconds of wall
+    time, between chunks (0: none is saved; one already there is still resumed from).
+
+    The state between chunks decides everything after it (the loop's results do not depend on
+    where a chunk ends), so a case resumed from its checkpoint ends exactly as if uninterrupted. A
+    checkpoint saved under other parameters, another scene or other code (engine hash, versions)
+    is ignored with one line on stderr; the checkpoint is removed once the case file is written.
+    The file is no declared output of the workflow, so Snakemake leaves it for the re-run.
+    """
+
+    def __init__(self, out, scene, values, every):
+        self.path = Path(f"{out}.ckpt")
+        self.key = {"scene": scene.name, "parameters": values}
+        self.every = every
+        self.last = time.perf_counter()
+
+    def load(self):
+        """The saved state, or None when there is none usable."""
+        from ..io import read_checkpoint
+
+        if not self.path.exists():
+            return None
+        try:
+            return read_checkpoint(self.path, self.key)
+        except ValueError as exc:
+            _say(f"ignoring checkpoint {self.path}: {exc}; starting from step 0")
+            return None
+
+    def due(self):
+        return self.every > 0 and time.perf_counter() - self.last >= self.every
+
+    def save(self, state):
+        from ..io import write_checkpoint
+
+        write_checkpoint(self.path, self.key, state)
+        self.last = time.perf_counter()
+
+    def remove(self):
+        self.path.unlink(missing_ok=True)
 
 
 def drive(scene, values, ctx, out=None):
     """Run one case of ``scene`` with resolved ``values``; write it to ``out`` (netCDF) when
-    given. Returns (xarray.Dataset, provenance dict)."""
+    given, resuming from its checkpoint if one is there. Returns (xarray.Dataset, provenance
+    dict)."""
     t_wall = time.perf_counter()
-    case = scene.build(values)
+    # Snapshot frames are written as the run goes (and their file is a declared output, which
+    # Snakemake deletes before a re-run): a resumed run could not rebuild them, so such a run
+    # keeps no checkpoint.
+    checkpoint = Checkpoint(out, scene, values, ctx.checkpoint_every) \
+        if out is not None and ctx.snapshots is None else None
+    saved = checkpoint.load() if checkpoint else None
     progress = Progress(scene.name) if ctx.progress else None
+    if saved:
+        case, steps_total = saved["case"], saved["steps_total"]
+        resumed = saved["resumed_at_steps"] + [steps_total]
+        # wall time of the run so far: up to the checkpoint (the work after it is done again)
+        t_wall -= saved["wall_time_s"]
+        _say(f"{scene.name}: resuming from {checkpoint.path} at step {steps_total} "
+             f"(t = {case.sim.time:.6g} s)")
+    else:
+        case, steps_total, resumed = scene.build(values), 0, []
+        ctx.snapshot(case.sim)
     if progress:
         progress.begin(case.sim.n_particles)
-    ctx.snapshot(case.sim)
-    steps_total = 0
     while not case.done():
         n = case.chunk()
         sim = case.sim
@@ -156,6 +220,9 @@ def drive(scene, values, ctx, out=None):
         if progress:
             fraction, note = case.progress()
             progress.update(fraction, note, steps_total, case.sim.n_particles)
+        if checkpoint and checkpoint.due() and not case.done():
+            checkpoint.save({"case": case, "steps_total": steps_total, "resumed_at_steps": resumed,
+                             "wall_time_s": time.perf_counter() - t_wall})
     summaries, coords, extra = case.finish()
     data, series_coords = case.series_dataset()
     data.update(summaries)
@@ -166,9 +233,12 @@ def drive(scene, values, ctx, out=None):
     provenance = {"scene": scene.name, "parameters": values, "seed": values.get("seed", 0),
                   "dt": sim.dt, "steps": steps_total, "wall_time_s": time.perf_counter() - t_wall,
                   "dt_limit": sim.dt_report.limit, "dt_binding": sim.dt_report.binding.kind,
-                  "compute_seconds": sim.wall_seconds, "threads": ctx.threads or 0, **extra}
+                  "compute_seconds": sim.wall_seconds, "threads": ctx.threads or 0,
+                  "resumed_at_steps": " ".join(map(str, resumed)), **extra}
     if out is not None:
         from ..io import write_case
 
         write_case(out, ds, provenance)
+        if checkpoint:
+            checkpoint.remove()
     return ds, provenance
