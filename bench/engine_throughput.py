@@ -94,7 +94,9 @@ def main(argv=None):
     state = lig["spun_state_path"] if args.case == "drum" else lig["settled_state_path"]
     mine = work / f"millsim_{args.case}_state.csv"
     to_millsim_frame(state, mine, args.case)
-    values = {"container": args.case, "init_file": str(mine), "dt": 1e-6, "skin": 2e-4}
+    # LIGGGHTS' default end of contact (limitForce off): the same force law in both codes
+    values = {"container": args.case, "init_file": str(mine), "dt": 1e-6, "skin": 2e-4,
+              "convention": "unclipped"}
 
     with tempfile.TemporaryDirectory() as cache:
         cold = run_millsim(values, 0, args.cores, cache)
