@@ -52,6 +52,8 @@ numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
 
 from .simulation import Guards, Simulation, SimulationError, StepPolicy
 from .spec import PhysicsSpec
+from .state import BYTES_PER_PARTICLE
 from .timestep import TimeStepError
 
-__all__ = ["Guards", "PhysicsSpec", "Simulation", "SimulationError", "StepPolicy", "TimeStepError"]
+__all__ = ["BYTES_PER_PARTICLE", "Guards", "PhysicsSpec", "Simulation", "SimulationError",
+           "StepPolicy", "TimeStepError"]
