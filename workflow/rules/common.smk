@@ -7,10 +7,12 @@ change of either re-runs exactly the affected cases.
 
 Parameter ranges are declared once, by the scenes: the schema checks only the config's structure,
 and every case of every study is resolved by its scene (`millsim scenes NAME` lists the ranges)
-before any job starts. The figures and their captions come from the plot registry
-(`millsim plot --list`); figure NAME is results/plots/NAME.png.
+before any job starts; so are a value given twice in one sweep, and a time step that can exceed
+the stability limit (the case is built, as `millsim run` would). The figures and their captions
+come from the plot registry (`millsim plot --list`); figure NAME is results/plots/NAME.png.
 """
 
+import json
 import os
 import shlex
 import subprocess
@@ -23,6 +25,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.utils import Paramspace, validate
 
 import millsim
+from millsim.io import atomic_target
 from millsim.scenes.base import get_scene
 
 validate(config, schema="../schemas/config.schema.yaml")
@@ -58,23 +61,76 @@ def make_study(block, scene, values, stack_over, **pinned):
         [values[k] if isinstance(values[k], list) else [values[k]] for k in swept],
         names=swept,
     ).to_frame(index=False)
-    return checked_study(
+    study = checked_study(
         block,
         scene,
         Study(Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}),
     )
+    refuse_repeats(block, scene, values)
+    return study
+
+
+def refuse_repeats(block, scene, values):
+    """Refuse a value given twice in one swept list (0.5 and 0.50 alike): the same case twice,
+    which the aggregate would refuse only after every case had run."""
+    params = {p.name: p for p in get_scene(scene).params}
+    for key, given in values.items():
+        if not isinstance(given, list):
+            continue
+        seen = {}
+        for value in given:
+            parsed = params[key].parse(str(value))
+            if parsed in seen:
+                raise ValueError(
+                    f"config {block}: {key}: {value!r} repeats {seen[parsed]!r} in the sweep "
+                    f"{given}; give each value once (replicates: sweep seed)"
+                )
+            seen[parsed] = value
+
+
+# Cases whose time step was found within the stability limit, per code version: building a case
+# takes up to seconds (a full-scale stirred mill ~7 s), so a dry run builds each once.
+STEP_CHECKS = Path(".snakemake", "millsim", f"step-checks-{ENGINE}.json")
+try:
+    STEPS_CHECKED = set(json.loads(STEP_CHECKS.read_text()))
+except (OSError, ValueError):
+    STEPS_CHECKED = set()
+
+
+def step_within_limit(scene, values):
+    """Build the case, as `millsim run` does before it compiles anything: a step above the
+    stability limit is refused there. Only a case whose step can exceed the limit is built: an
+    absolute dt, or dt_factor above 1 (the engine recommends a step below the limit of every
+    interaction). Returns whether the case was built now."""
+    if not (values.get("dt", 0.0) > 0 or values.get("dt_factor", 1.0) > 1):
+        return False
+    key = json.dumps([scene, values], sort_keys=True)
+    if key in STEPS_CHECKED:
+        return False
+    get_scene(scene).build(values)
+    STEPS_CHECKED.add(key)
+    return True
 
 
 def checked_study(block, scene, study):
-    """``study`` once its scene has resolved every case (the parameter ranges live there)."""
+    """``study`` once its scene has resolved every case (the parameter ranges live there) and
+    those whose step can exceed the stability limit have been built."""
+    built = False
     # str() of each value, exactly as Paramspace writes it into the case path
     for row in study.space.dataframe.itertuples(index=False):
         try:
-            get_scene(scene).resolve(
+            values = get_scene(scene).resolve(
                 {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
             )
+            built |= step_within_limit(scene, values)
         except ValueError as exc:
             raise ValueError(f"config {block}: {exc}") from None
+    if built:
+        with atomic_target(STEP_CHECKS) as tmp:
+            tmp.write_text(json.dumps(sorted(STEPS_CHECKED)))
+        for old in STEP_CHECKS.parent.glob("step-checks-*.json"):
+            if old != STEP_CHECKS:  # of other code versions
+                old.unlink(missing_ok=True)
     return study
 
 
