@@ -7,9 +7,10 @@ change of either re-runs exactly the affected cases.
 
 Parameter ranges are declared once, by the scenes: the schema checks only the config's structure,
 and every case of every study is resolved by its scene (`millsim scenes NAME` lists the ranges)
-before any job starts; so are a value given twice in one sweep, and a time step that can exceed
-the stability limit (the case is built, as `millsim run` would). The figures and their captions
-come from the plot registry (`millsim plot --list`); figure NAME is results/plots/NAME.png.
+before any job starts; so are a value given twice in one sweep, and, for every case Snakemake
+schedules, a time step above the stability limit (the case is built, as `millsim run` would).
+The figures and their captions come from the plot registry (`millsim plot --list`); figure NAME
+is results/plots/NAME.png.
 """
 
 import json
@@ -42,6 +43,7 @@ ENGINE = millsim.provenance_hash()
 
 @dataclass(frozen=True)
 class Study:
+    scene: str
     space: Paramspace  # swept parameters, one row per case
     fixed: dict  # parameter -> command-line string, the same for every case
 
@@ -64,7 +66,7 @@ def make_study(block, scene, values, stack_over, **pinned):
     study = checked_study(
         block,
         scene,
-        Study(Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}),
+        Study(scene, Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}),
     )
     refuse_repeats(block, scene, values)
     return study
@@ -88,8 +90,21 @@ def refuse_repeats(block, scene, values):
             seen[parsed] = value
 
 
+def checked_study(block, scene, study):
+    """``study`` once its scene has resolved every case (the parameter ranges live there)."""
+    # str() of each value, exactly as Paramspace writes it into the case path
+    for row in study.space.dataframe.itertuples(index=False):
+        try:
+            get_scene(scene).resolve(
+                {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
+            )
+        except ValueError as exc:
+            raise ValueError(f"config {block}: {exc}") from None
+    return study
+
+
 # Cases whose time step was found within the stability limit, per code version: building a case
-# takes up to seconds (a full-scale stirred mill ~7 s), so a dry run builds each once.
+# takes up to seconds (a full-scale stirred mill ~7 s), so each is built once.
 STEP_CHECKS = Path(".snakemake", "millsim", f"step-checks-{ENGINE}.json")
 try:
     STEPS_CHECKED = set(json.loads(STEP_CHECKS.read_text()))
@@ -97,41 +112,35 @@ except (OSError, ValueError):
     STEPS_CHECKED = set()
 
 
-def step_within_limit(scene, values):
-    """Build the case, as `millsim run` does before it compiles anything: a step above the
-    stability limit is refused there. Only a case whose step can exceed the limit is built: an
-    absolute dt, or dt_factor above 1 (the engine recommends a step below the limit of every
-    interaction). Returns whether the case was built now."""
-    if not (values.get("dt", 0.0) > 0 or values.get("dt_factor", 1.0) > 1):
-        return False
-    key = json.dumps([scene, values], sort_keys=True)
+def check_step(study, sets):
+    """Build the case of ``study`` with parameters ``sets`` as `millsim run` does before it
+    compiles anything, where a step above the stability limit is refused. Called for the cases
+    Snakemake schedules (a study's space may hold many more), while it builds the jobs, before
+    any runs. Only a case whose step can exceed the limit is built: an absolute dt, or dt_factor
+    above 1 (the engine recommends a step below the limit of every interaction)."""
+    scene = get_scene(STUDIES[study].scene)
+    # the two step parameters alone first: resolving every case again costs seconds
+    step = {
+        p.name: p.parse(sets[p.name]) if p.name in sets else p.default
+        for p in scene.params
+        if p.name in ("dt", "dt_factor")
+    }
+    if not (step.get("dt", 0.0) > 0 or step.get("dt_factor", 1.0) > 1):
+        return
+    values = scene.resolve(sets)
+    key = json.dumps([scene.name, values], sort_keys=True)
     if key in STEPS_CHECKED:
-        return False
-    get_scene(scene).build(values)
+        return
+    try:
+        scene.build(values)
+    except ValueError as exc:
+        raise WorkflowError(f"config {study}: {exc}") from None
     STEPS_CHECKED.add(key)
-    return True
-
-
-def checked_study(block, scene, study):
-    """``study`` once its scene has resolved every case (the parameter ranges live there) and
-    those whose step can exceed the stability limit have been built."""
-    built = False
-    # str() of each value, exactly as Paramspace writes it into the case path
-    for row in study.space.dataframe.itertuples(index=False):
-        try:
-            values = get_scene(scene).resolve(
-                {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
-            )
-            built |= step_within_limit(scene, values)
-        except ValueError as exc:
-            raise ValueError(f"config {block}: {exc}") from None
-    if built:
-        with atomic_target(STEP_CHECKS) as tmp:
-            tmp.write_text(json.dumps(sorted(STEPS_CHECKED)))
-        for old in STEP_CHECKS.parent.glob("step-checks-*.json"):
-            if old != STEP_CHECKS:  # of other code versions
-                old.unlink(missing_ok=True)
-    return study
+    with atomic_target(STEP_CHECKS) as tmp:
+        tmp.write_text(json.dumps(sorted(STEPS_CHECKED)))
+    for old in STEP_CHECKS.parent.glob("step-checks-*.json"):
+        if old != STEP_CHECKS:  # of other code versions
+            old.unlink(missing_ok=True)
 
 
 BALLMILL = config["ballmill"]
@@ -176,11 +185,13 @@ def case_label(study):
 
 
 def case_sets(study):
-    """Params function: the case's parameters as `--set key=value` arguments of `millsim run`."""
+    """Params function: the case's parameters as `--set key=value` arguments of `millsim run`,
+    once its time step is checked (check_step)."""
 
     def sets(wildcards):
         swept = {k: wildcards[k] for k in STUDIES[study].space.dataframe.columns}
         values = {**STUDIES[study].fixed, **swept}
+        check_step(study, values)
         # sorted: reordering the config must not look like a change of parameters
         return " ".join(
             f"--set {shlex.quote(f'{k}={v}')}" for k, v in sorted(values.items())
