@@ -422,8 +422,7 @@ def main(argv=None):
         return args.func(args) or 0
     except KeyboardInterrupt as exc:
         signum = exc.args[0] if exc.args else signal.SIGINT
-        print(f"millsim: interrupted ({signal.Signals(signum).name}); nothing written",
-              file=sys.stderr)
+        print(f"millsim: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
         return 128 + signum
     except KeyError as exc:
         if args.command != "analyse":
