@@ -15,7 +15,7 @@ DRUM = 0.05
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
-def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3):
+def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3, seed=1):
     """A case file with every variable of the ballmill2d contract, numbers made up from n/n_c."""
     rng = np.random.default_rng(int(n_over_nc * 100))
     time = np.linspace(0.0, 1.0, 11)
@@ -61,8 +61,8 @@ def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3):
     ds = xr.Dataset({k: xr.Variable(*v) for k, v in data.items()},
                     coords={k: xr.Variable(*v) for k, v in coords.items()})
     params = {"n_over_nc": n_over_nc, "drum_radius": DRUM, "filling": filling,
-              "fragmentation": fragmentation, "seed": 1}
-    write_case(path, ds, {"scene": "ballmill2d", "parameters": params, "seed": 1, "dt": 1e-5,
+              "fragmentation": fragmentation, "seed": seed}
+    write_case(path, ds, {"scene": "ballmill2d", "parameters": params, "seed": seed, "dt": 1e-5,
                           "steps": 1000, "wall_time_s": float(n_over_nc)})
     return path
 
@@ -114,10 +114,22 @@ def test_aggregate_stacks_along_speed_and_normalises_rate(cases):
 def test_aggregate_defaults_to_swept_parameters_and_rejects_duplicates(cases, tmp_path):
     assert swept_parameters([read_case(p) for p in cases]) == ["n_over_nc"]
     twin = synthetic_case(tmp_path / "twin.nc", 1.0)
-    with pytest.raises(ValueError, match="share the same values of n_over_nc"):
+    with pytest.raises(ValueError, match=r"case_1.0.nc and .*twin.nc are the same point "
+                                         r"\(n_over_nc=1.0\)"):
         aggregate("ballmill2d", [*cases, twin])
     with pytest.raises(ValueError, match="not 'packing'"):
         aggregate("packing", cases, ["n_over_nc"])
+
+
+def test_aggregate_refuses_cases_that_differ_beyond_the_stacked_parameters(cases, tmp_path):
+    """A parameter that differs between the cases but is not stacked over, a fixed one or the
+    seed, would be dropped from the aggregate: refused, naming it and both values."""
+    odd = synthetic_case(tmp_path / "odd.nc", 2.0, filling=0.4)
+    with pytest.raises(ValueError, match=r"^filling: 0.3 in .*case_1.0.nc but 0.4 in .*odd.nc"):
+        aggregate("ballmill2d", [*cases, odd], ["n_over_nc"])
+    reseeded = synthetic_case(tmp_path / "reseeded.nc", 2.0, seed=2)
+    with pytest.raises(ValueError, match=r"^seed: 1 in .*case_1.0.nc but 2 in .*reseeded.nc"):
+        aggregate("ballmill2d", [*cases, reseeded], ["n_over_nc"])
 
 
 def test_aggregate_over_two_parameters(tmp_path):

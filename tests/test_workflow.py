@@ -114,6 +114,15 @@ def test_sweep_runs_once_and_reruns_only_the_changed_case(workdir):
     (("ballmill", "parameters", "fragmentation"), False, "fragmentation"),
     # not in the schema: the scene's own declaration refuses it, still before any job
     (("ballmill", "parameters", "grain_radiuss"), 0.001, "grain_radiuss"),
+    # these used to pass the dry run and fail inside the jobs
+    (("ballmill", "parameters", "n_over_nc"), [0.5, 1.0, 0.5], "n_over_nc: 0.5 repeats"),
+    (("ballmill", "parameters", "dt"), 1e-3, "dt: 0.001 s exceeds the stability limit"),
+    (("ballmill", "parameters", "n_grains"), 10**12, "n_grains: 1000000000000 particles need"),
+    (("ballmill", "parameters", "grain_radius"), 0.05, "grain_radius: the largest grain"),
+    (("bed_impact",), {"parameters": {"materials_file": "nosuch.yaml"},
+                       "sweeps": [{"material": "copper_ore", "rings": 0, "layers": 1,
+                                   "impact_energy": 1.0, "seed": 1}]},
+     "materials_file: nosuch.yaml"),
 ])
 def test_bad_config_is_refused_before_any_job(workdir, path, value, named):
     config = tiny_config([0.5, 1.0])

@@ -3,11 +3,15 @@ case to a netCDF file, describe a case file, stack cases into an aggregate, anal
 (``millsim analyse STUDY STAGE``) and draw a figure of the plot registry.
 
 Every pipeline rule calls this, so any stage can be re-run by hand with the same command.
-Bad input ends with exit code 2, one line naming the key and its allowed range, and no output file.
+Bad input ends with exit code 2, one line naming the key and its allowed range, and no output file:
+outputs are checked before the work (a case's before its simulation), inputs as they are read, and
+every output is written atomically. Ctrl-C or SIGTERM ends with one line and 128 + the signal.
 """
 
 import argparse
+import signal
 import sys
+import threading
 from pathlib import Path
 
 import millsim
@@ -40,21 +44,58 @@ def cmd_scenes(args):
     return 0
 
 
+def _check_out(out, inputs=(), suffix=None, key="--out"):
+    """Refuse, before any work, an output that cannot be written or would replace an input."""
+    from .io import check_writable
+
+    out = Path(out)
+    if suffix is not None and out.suffix != suffix:
+        raise ValueError(f"{key}: must end in {suffix}, got {str(out)!r}")
+    for path in inputs:
+        if Path(path).resolve() == out.resolve():
+            raise ValueError(f"{key}: {str(out)!r} is also an input; it would be overwritten")
+    check_writable(out, key)
+
+
+def _threads(requested):
+    """``--threads`` checked: at least 1; above the threads numba has, it runs on those and says
+    so (the results are the same with any number of threads)."""
+    if requested is None:
+        return None
+    if requested < 1:
+        raise ValueError(f"--threads: must be >= 1, got {requested}")
+    import numba
+
+    available = numba.config.NUMBA_NUM_THREADS
+    if requested > available:
+        print(f"millsim: warning: --threads: {requested} is above the {available} threads numba "
+              f"has here (cores or NUMBA_NUM_THREADS; allowed [1, {available}]); running on "
+              f"{available}", file=sys.stderr)
+        return available
+    return requested
+
+
 def cmd_run(args):
     from .io import SnapshotWriter
     from .scenes.base import RunContext, get_scene
 
     scene = get_scene(args.scene)
     values = scene.resolve(_parse_sets(args.set))
+    # checked before the run: a case that cannot be written would be lost after all its work
+    _check_out(args.out, suffix=".nc")
     out = Path(args.out)
-    if out.suffix != ".nc":
-        raise ValueError(f"--out: must end in .nc, got {str(out)!r}")
-    if args.threads is not None and args.threads < 1:
-        raise ValueError(f"--threads: must be >= 1, got {args.threads}")
     if not args.checkpoint_every >= 0:
         raise ValueError(f"--checkpoint-every: must be >= 0, got {args.checkpoint_every:g}")
+    if args.snapshots:
+        # the XDMF sidecar is the same name with .xdmf: given that name, it would replace the frames
+        if Path(args.snapshots).suffix not in (".h5", ".hdf5"):
+            raise ValueError(f"--snapshots: must end in .h5 or .hdf5 (an .xdmf sidecar is written "
+                             f"beside it), got {args.snapshots!r}")
+        _check_out(args.snapshots, key="--snapshots")
+        _check_out(Path(args.snapshots).with_suffix(".xdmf"), key="--snapshots")
+    threads = _threads(args.threads)
     snapshots = SnapshotWriter(args.snapshots, dim=values.get("dim", 3)) if args.snapshots else None
-    ctx = RunContext(progress=not args.quiet, snapshots=snapshots, threads=args.threads,
+    ctx = RunContext(progress=not args.quiet, snapshots=snapshots, threads=threads,
                      checkpoint_every=args.checkpoint_every)
     try:
         _, provenance = scene.run(values, ctx, out=out)
@@ -70,7 +111,7 @@ def cmd_run(args):
 def cmd_info(args):
     from .io import case_parameters, read_case
 
-    ds = read_case(args.file)
+    ds = read_case(args.file, scene="*")
     a = ds.attrs
     print(f"{args.file}")
     for key in ("scene", "millsim_version", "engine_hash", "seed", "dt", "steps", "wall_time_s",
@@ -94,6 +135,7 @@ def cmd_aggregate(args):
     from .scenes.base import get_scene
 
     scene = get_scene(args.scene)
+    _check_out(args.out, args.cases, ".nc")
     # the scene declares each parameter once; its units label the stacking coordinates
     attrs = {p.name: {"units": p.units, "long_name": p.doc} for p in scene.params}
     write_netcdf(args.out, aggregate(scene.name, args.cases, args.over, attrs))
@@ -110,6 +152,7 @@ def cmd_plot(args):
         return 0
     if not (args.kind and args.input and args.out):
         raise ValueError("plot: give KIND INPUT --out FILE, or --list")
+    _check_out(args.out, [args.input])
     plots.plot(args.kind, args.input, args.out)
     return 0
 
@@ -119,41 +162,61 @@ def cmd_plot(args):
 def _write_json(path, obj):
     import json
 
-    with open(path, "w") as fh:
+    from .io import atomic_target
+
+    with atomic_target(path) as tmp, open(tmp, "w") as fh:
         json.dump(obj, fh, indent=2, sort_keys=True)
         fh.write("\n")
 
 
-def _read_json(path):
+def _write_csv(path, table):
+    from .io import atomic_target
+
+    with atomic_target(path) as tmp:
+        table.to_csv(tmp, index=False)
+
+
+def _read_json(path, *keys):
+    """A JSON file of an earlier stage, with ``keys`` required at its top level."""
     import json
 
-    with open(path) as fh:
-        return json.load(fh)
+    try:
+        with open(path) as fh:
+            obj = json.load(fh)
+    except (OSError, ValueError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        raise ValueError(f"{path}: not a readable JSON file ({exc})") from None
+    missing = [k for k in keys if not isinstance(obj, dict) or k not in obj]
+    if missing:
+        raise ValueError(f"{path}: missing {missing}; not the choice file of the stage before")
+    return obj
 
 
 def cmd_accuracy_collect(args):
     from .analysis import accuracy
 
+    _check_out(args.out, args.cases)
     table = accuracy.collect(args.cases, args.name, args.series, args.ladder)
-    table.to_csv(args.out, index=False)
+    _write_csv(args.out, table)
     print(f"{args.name}/{args.series}: {table['path'].nunique()} cases, "
           f"{table['observable'].nunique()} observables")
 
 
 def cmd_accuracy_aggregate(args):
-    import pandas as pd
-
     from .analysis import accuracy
-    from .io import write_netcdf
+    from .io import atomic_target, write_netcdf
 
-    cases = pd.concat([pd.read_csv(p) for p in args.tables], ignore_index=True)
+    _check_out(args.out, args.tables, ".nc")
+    if args.summary:
+        _check_out(args.summary, args.tables, key="--summary")
+    cases = accuracy.read_tables(args.tables)
     links = {tuple(k.split("/", 1)): v for k, v in _parse_sets(args.reference, "--reference").items()}
     decide = {k: v.split(",") for k, v in _parse_sets(args.decide, "--decide").items()}
     ds, text = accuracy.study(cases, args.tolerance, links, _parse_sets(args.method, "--method"), decide,
                               args.limit_fraction, args.config_json)
     write_netcdf(args.out, ds)
     if args.summary:
-        Path(args.summary).write_text(text)
+        with atomic_target(args.summary) as tmp:
+            tmp.write_text(text)
     print(text)
 
 
@@ -162,6 +225,9 @@ def cmd_accuracy_summary(args):
     from .io import read_case
 
     ds = read_case(args.input)
+    if "point_name" not in ds.variables:
+        raise ValueError(f"{args.input}: not an accuracy aggregate (`millsim analyse accuracy "
+                         "aggregate` writes one)")
     print(accuracy.summary_markdown(accuracy.points_frame(ds, "point"),
                                     accuracy.points_frame(ds, "choice")))
 
@@ -169,10 +235,13 @@ def cmd_accuracy_summary(args):
 def cmd_stirred_friction(args):
     from .analysis import stirred_mill as sm
 
+    inputs = [*args.cases, args.reference]
+    for key, out in (("--table", args.table), ("--summary", args.summary), ("--choice", args.choice)):
+        _check_out(out, inputs, key=key)
     table, summary, choice = sm.calibrate_friction(sm.case_table(args.cases),
                                                    sm.read_reference(args.reference))
-    table.to_csv(args.table, index=False)
-    summary.to_csv(args.summary, index=False)
+    _write_csv(args.table, table)
+    _write_csv(args.summary, summary)
     _write_json(args.choice, choice)
     print(f"stage 1: friction = {choice['friction']:g} (refined {choice['friction_refined']:.4g})")
 
@@ -180,10 +249,13 @@ def cmd_stirred_friction(args):
 def cmd_stirred_viscosity(args):
     from .analysis import stirred_mill as sm
 
-    friction = _read_json(args.friction)["friction"]
+    inputs = [*args.cases, args.reference, args.friction]
+    for key, out in (("--table", args.table), ("--choice", args.choice)):
+        _check_out(out, inputs, key=key)
+    friction = _read_json(args.friction, "friction")["friction"]
     table, choice = sm.calibrate_viscosity(sm.case_table(args.cases),
                                            sm.read_reference(args.reference), friction, args.rpm)
-    table.to_csv(args.table, index=False)
+    _write_csv(args.table, table)
     _write_json(args.choice, dict(friction=friction, rpm=args.rpm, fluids=choice))
     for fluid, c in choice.items():
         print(f"stage 2: {fluid}: eta_sim = {c['eta_sim']:g} Pa s "
@@ -193,17 +265,19 @@ def cmd_stirred_viscosity(args):
 def cmd_stirred_predict(args):
     from .analysis import stirred_mill as sm
 
-    visc = _read_json(args.viscosity)
+    _check_out(args.table, [*args.cases, args.reference, args.viscosity], key="--table")
+    visc = _read_json(args.viscosity, "friction", "fluids")
     etas = {f: c["eta_sim"] for f, c in visc["fluids"].items()}
     table = sm.predict(sm.case_table(args.cases), sm.read_reference(args.reference),
                        visc["friction"], etas)
-    table.to_csv(args.table, index=False)
+    _write_csv(args.table, table)
 
 
 def cmd_tavares_aggregate(args):
     from .analysis import tavares_verification as tv
     from .io import write_netcdf
 
+    _check_out(args.out, args.cases, ".nc")
     ds = tv.aggregate(args.cases)
     write_netcdf(args.out, ds)
     print("\n".join(tv.summary(ds)))
@@ -213,7 +287,11 @@ def cmd_tavares_summary(args):
     from .analysis import tavares_verification as tv
     from .io import read_case
 
-    print("\n".join(tv.summary(read_case(args.input))))
+    ds = read_case(args.input)
+    if not any(key.startswith("pass_rule_") for key in ds.attrs):
+        raise ValueError(f"{args.input}: not a Tavares verification aggregate (`millsim analyse "
+                         "tavares aggregate` writes one)")
+    print("\n".join(tv.summary(ds)))
 
 
 def _analyse_parser(sub):
@@ -338,18 +416,31 @@ def build_parser():
     return parser
 
 
+def _interrupted(signum, frame):
+    # SIGTERM (Snakemake, SLURM at the time limit) ends a run like Ctrl-C: the finally blocks of
+    # the writers remove their temporary files
+    raise KeyboardInterrupt(signum)
+
+
 def main(argv=None):
     args = build_parser().parse_args(argv)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _interrupted) if in_main_thread else None
     try:
         return args.func(args) or 0
+    except KeyboardInterrupt as exc:
+        signum = exc.args[0] if exc.args else signal.SIGINT
+        print(f"millsim: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
+        return 128 + signum
     except KeyError as exc:
         if args.command != "analyse":
             raise
         # a column or variable the analysis needs is missing from its input
         print(f"millsim: error: missing {exc}", file=sys.stderr)
         return 2
-    except (ValueError, FileNotFoundError) as exc:
-        print(f"millsim: error: {exc}", file=sys.stderr)
+    except (ValueError, OSError) as exc:
+        # one line, also where a library's message spans several
+        print(f"millsim: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     except Exception as exc:  # SimulationError and friends: one clear line, non-zero exit
         from .engine import SimulationError
@@ -358,6 +449,9 @@ def main(argv=None):
             print(f"millsim: simulation stopped: {exc}", file=sys.stderr)
             return 3
         raise
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

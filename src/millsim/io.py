@@ -1,5 +1,7 @@
 """netCDF output (one writer for cases, aggregates and analysis results), optional particle
-snapshots (HDF5 + XDMF) and the checkpoints of running cases (pickle).
+snapshots (HDF5 + XDMF) and the checkpoints of running cases (pickle); the readers of the later
+stages (cases, aggregates, CSV tables, snapshots), which refuse a missing, empty, truncated or
+foreign file with one line naming it.
 
 All quantities are SI; every variable carries a CF-style ``units`` attribute ("1" when
 dimensionless). A case's provenance goes into global attributes so that a case file alone says
@@ -8,11 +10,14 @@ how it was produced.
 
 from __future__ import annotations
 
+import glob
 import json
 import operator
 import os
 import pickle
 import platform
+import tempfile
+import time
 import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
@@ -28,7 +33,8 @@ import xarray as xr
 
 import millsim
 
-__all__ = ["write_netcdf", "write_case", "read_case", "case_parameters", "SnapshotWriter",
+__all__ = ["write_netcdf", "write_case", "read_case", "read_table", "case_parameters",
+           "atomic_target", "check_writable", "open_snapshots", "SnapshotWriter",
            "write_checkpoint", "read_checkpoint"]
 
 # key -> coercion; coercing also rejects e.g. a float seed instead of silently truncating it
@@ -42,20 +48,83 @@ _REQUIRED_PROVENANCE = {
 }
 
 
+# A temporary file of atomic_target not touched for this long is left over from a killed writer
+# (SIGKILL, out of memory, power loss); writing one file takes seconds.
+STALE_TEMPORARY_S = 3600.0
+
+
+def check_writable(path: str | os.PathLike[str], key: str | None = None) -> None:
+    """Refuse an output ``path`` that cannot be written, before any work is done for it.
+
+    Catches a path that is a directory, a parent that is a file, and a directory that refuses a
+    new file (read-only, no permission), by creating and removing a probe file in the nearest
+    directory that exists (the missing ones are created only when the output is written).
+    ``key`` (the option that named the path) leads the message.
+    """
+    path = Path(path)
+    key = f"{key}: " if key else ""
+    if path.is_dir():
+        raise ValueError(f"{key}{path} is a directory; give a file name")
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ValueError(f"{key}cannot write {path}: {parent} is not a directory")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=parent)
+    except OSError as exc:
+        raise ValueError(f"{key}cannot write {path}: {parent}: {exc.strerror}") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
 @contextmanager
-def _atomic_target(path: Path) -> Iterator[Path]:
+def atomic_target(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; move it onto ``path`` only if the block succeeds.
 
-    Same directory so that os.replace is an atomic rename on one filesystem. The name is only
-    reserved, not created, so the writer creates the file with the usual umask permissions.
+    Same directory so that os.replace is an atomic rename on one filesystem; same suffix so that
+    writers that pick the format by it (matplotlib) write the right one. The name is only
+    reserved, not created, so the writer creates the file with the usual umask permissions. The
+    temporary files of earlier writers of ``path`` that were killed are removed first.
     """
+    path = Path(path)
+    check_writable(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    _remove_stale(path)
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp{path.suffix}")
     try:
         yield tmp
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _remove_stale(path: Path) -> None:
+    now = time.time()
+    for name in glob.glob(f".{glob.escape(path.name)}.*.tmp*", root_dir=path.parent):
+        stale = path.parent / name
+        try:
+            if now - stale.stat().st_mtime > STALE_TEMPORARY_S:
+                stale.unlink()
+        except FileNotFoundError:  # removed meanwhile by another writer
+            pass
+
+
+def _unreadable(path: str | os.PathLike[str], exc: BaseException, kind: str) -> ValueError:
+    """The one-line error for a file that cannot be opened as ``kind``."""
+    p = Path(path)
+    if not p.exists():
+        reason = "no such file"
+    elif p.is_dir():
+        reason = "a directory, not a file"
+    elif isinstance(exc, PermissionError):
+        reason = "permission denied"
+    elif p.stat().st_size == 0:
+        reason = "empty file"
+    else:
+        detail = " ".join(str(getattr(exc, "strerror", None) or exc).split())  # h5py's span lines
+        reason = f"not a readable {kind} (truncated, damaged or another format: {detail})"
+    return ValueError(f"{path}: {reason}")
 
 
 def _attr_value(name: str, value: Any) -> Any:
@@ -166,7 +235,7 @@ def write_netcdf(path: str | os.PathLike[str], data: xr.Dataset,
         "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "Conventions": "CF-1.8",
     }
-    with _atomic_target(path) as tmp:
+    with atomic_target(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4")
     return path
 
@@ -184,12 +253,35 @@ def write_case(path: str | os.PathLike[str], data: xr.Dataset, provenance: dict[
     return write_netcdf(path, data, attrs)
 
 
-def read_case(path: str | os.PathLike[str]) -> xr.Dataset:
-    """Load a case file fully into memory; the file is closed on return.
+def read_case(path: str | os.PathLike[str], scene: str | None = None) -> xr.Dataset:
+    """Load a netCDF file of millsim (a case or an aggregate) fully into memory; the file is
+    closed on return. ``scene``: require a case file (written by write_case) of that scene, or of
+    any scene with ``"*"``.
 
     Times are stored as SI seconds, so CF time decoding is turned off to keep them floats.
     """
-    return xr.load_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
+    try:
+        ds = xr.load_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
+    except (OSError, ValueError) as exc:
+        raise _unreadable(path, exc, "netCDF file") from None
+    if scene is not None:
+        found = ds.attrs.get("scene")
+        if found is None or "parameters_json" not in ds.attrs:
+            raise ValueError(f"{path}: not a millsim case file (no scene and parameters; "
+                             "`millsim run` writes them)")
+        if scene != "*" and found != scene:
+            raise ValueError(f"{path}: a case of scene {found!r}, not {scene!r}")
+    return ds
+
+
+def read_table(path: str | os.PathLike[str], **read_csv: Any):
+    """A CSV table as a pandas DataFrame (``read_csv``: options of pandas.read_csv)."""
+    import pandas as pd
+
+    try:
+        return pd.read_csv(path, **read_csv)
+    except (OSError, ValueError) as exc:  # pandas' parser and decoding errors are ValueErrors
+        raise _unreadable(path, exc, "CSV table") from None
 
 
 def case_parameters(ds: xr.Dataset) -> dict[str, Any]:
@@ -197,7 +289,23 @@ def case_parameters(ds: xr.Dataset) -> dict[str, Any]:
     try:
         return json.loads(ds.attrs["parameters_json"])
     except KeyError:
-        raise ValueError("dataset has no 'parameters_json'; not written by write_case") from None
+        where = ds.encoding.get("source", "dataset")
+        raise ValueError(f"{where}: has no 'parameters_json'; not a case written by write_case") \
+            from None
+
+
+@contextmanager
+def open_snapshots(path: str | os.PathLike[str]) -> Iterator[h5py.Group]:
+    """The ``/frames`` group of a snapshot file (SnapshotWriter), open while the block runs."""
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise _unreadable(path, exc, "HDF5 snapshot file") from None
+    with f:
+        if not isinstance(f.get("frames"), h5py.Group):
+            raise ValueError(f"{path}: no /frames group; not a snapshot file of `millsim run "
+                             "--snapshots`")
+        yield f["frames"]
 
 
 class _CheckpointPickler(pickle.Pickler):
@@ -215,7 +323,7 @@ def write_checkpoint(path: str | os.PathLike[str], key: dict[str, Any], state: A
     """Pickle ``state`` to ``path`` atomically, after a header of ``key`` (what the state belongs
     to, e.g. scene and parameters) and the software versions and engine hash of this process."""
     path = Path(path)
-    with _atomic_target(path) as tmp:
+    with atomic_target(path) as tmp:
         with open(tmp, "wb") as fh:
             pickle.dump({**key, **_software_attrs()}, fh, protocol=pickle.HIGHEST_PROTOCOL)
             _CheckpointPickler(fh, protocol=pickle.HIGHEST_PROTOCOL).dump(state)
@@ -262,7 +370,8 @@ class SnapshotWriter:
     Frames live under ``/frames/NNNNNN`` with datasets position (N x 3, m), radius (N, m),
     velocity (N x 3, m/s) and any extra per-particle fields; N may differ between frames.
     In 2-D (``dim=2``) vectors are given as N x 2 and padded with zeros, since XDMF XYZ geometry
-    and Vector attributes need three components. The XDMF file is written on close().
+    and Vector attributes need three components. The files are created with the first frame, so
+    that a run refused before it starts leaves none; the XDMF file is written on close().
     """
 
     def __init__(self, path_h5: str | os.PathLike[str], dim: int):
@@ -271,9 +380,13 @@ class SnapshotWriter:
         self.path = Path(path_h5)
         self.xdmf_path = self.path.with_suffix(".xdmf")
         self.dim = dim
+        self._file: h5py.File | None = None
+        self._closed = False
+
+    def _open(self) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file: h5py.File | None = h5py.File(self.path, "w")
-        self._file.attrs["dim"] = dim
+        self._file = h5py.File(self.path, "w")
+        self._file.attrs["dim"] = self.dim
         self._file.attrs["time_units"] = "s"
         self._frames = self._file.create_group("frames")
 
@@ -299,8 +412,10 @@ class SnapshotWriter:
 
     def write(self, time: float, position: Any, radius: Any, velocity: Any, **fields: Any) -> None:
         """Append one frame at ``time`` (s). Extra fields are arrays of shape (N,) or (N, dim)."""
-        if self._file is None:
+        if self._closed:
             raise ValueError("SnapshotWriter is closed")
+        if self._file is None:
+            self._open()
         radius = np.asarray(radius, dtype=np.float64)
         if radius.ndim != 1:
             raise ValueError(f"radius: shape {radius.shape}, expected (N,)")
@@ -327,6 +442,7 @@ class SnapshotWriter:
         self._file.flush()
 
     def close(self) -> None:
+        self._closed = True
         if self._file is None:
             return
         try:
@@ -364,7 +480,7 @@ class SnapshotWriter:
                 self._data_item(attribute, dataset)
 
         ET.indent(root)
-        with _atomic_target(self.xdmf_path) as tmp:
+        with atomic_target(self.xdmf_path) as tmp:
             ET.ElementTree(root).write(tmp, encoding="utf-8", xml_declaration=True)
 
     def _data_item(self, parent: ET.Element, dataset: h5py.Dataset) -> None:

@@ -30,12 +30,12 @@ def bed_impact_study():
     fixed = {k: str(v) for k, v in fixed.items()}
     given = pd.concat(rows, ignore_index=True)
     # the scene checks the values as given (a rings of 1.5 must be refused, not cast to 1) ...
-    checked_study("bed_impact", "bed_impact", Study(Paramspace(given), fixed))
+    checked_study("bed_impact", "bed_impact", Study("bed_impact", Paramspace(given), fixed))
     # ... and the case paths write them in one form whatever the block (3 and 3.0 are one case)
     grid = given.astype(
         {"rings": int, "layers": int, "seed": int, "impact_energy": float}
     ).drop_duplicates(ignore_index=True)
-    return Study(Paramspace(grid), fixed)
+    return Study("bed_impact", Paramspace(grid), fixed)
 
 
 STUDIES["bed_impact"] = bed_impact_study()

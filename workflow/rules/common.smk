@@ -7,10 +7,13 @@ change of either re-runs exactly the affected cases.
 
 Parameter ranges are declared once, by the scenes: the schema checks only the config's structure,
 and every case of every study is resolved by its scene (`millsim scenes NAME` lists the ranges)
-before any job starts. The figures and their captions come from the plot registry
-(`millsim plot --list`); figure NAME is results/plots/NAME.png.
+before any job starts; so are a value given twice in one sweep, and, for every case Snakemake
+schedules, a time step above the stability limit (the case is built, as `millsim run` would).
+The figures and their captions come from the plot registry (`millsim plot --list`); figure NAME
+is results/plots/NAME.png.
 """
 
+import json
 import os
 import shlex
 import subprocess
@@ -23,6 +26,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.utils import Paramspace, validate
 
 import millsim
+from millsim.io import atomic_target
 from millsim.scenes.base import get_scene
 
 validate(config, schema="../schemas/config.schema.yaml")
@@ -39,6 +43,7 @@ ENGINE = millsim.provenance_hash()
 
 @dataclass(frozen=True)
 class Study:
+    scene: str
     space: Paramspace  # swept parameters, one row per case
     fixed: dict  # parameter -> command-line string, the same for every case
 
@@ -58,11 +63,31 @@ def make_study(block, scene, values, stack_over, **pinned):
         [values[k] if isinstance(values[k], list) else [values[k]] for k in swept],
         names=swept,
     ).to_frame(index=False)
-    return checked_study(
+    study = checked_study(
         block,
         scene,
-        Study(Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}),
+        Study(scene, Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}),
     )
+    refuse_repeats(block, scene, values)
+    return study
+
+
+def refuse_repeats(block, scene, values):
+    """Refuse a value given twice in one swept list (0.5 and 0.50 alike): the same case twice,
+    which the aggregate would refuse only after every case had run."""
+    params = {p.name: p for p in get_scene(scene).params}
+    for key, given in values.items():
+        if not isinstance(given, list):
+            continue
+        seen = {}
+        for value in given:
+            parsed = params[key].parse(str(value))
+            if parsed in seen:
+                raise ValueError(
+                    f"config {block}: {key}: {value!r} repeats {seen[parsed]!r} in the sweep "
+                    f"{given}; give each value once (replicates: sweep seed)"
+                )
+            seen[parsed] = value
 
 
 def checked_study(block, scene, study):
@@ -76,6 +101,46 @@ def checked_study(block, scene, study):
         except ValueError as exc:
             raise ValueError(f"config {block}: {exc}") from None
     return study
+
+
+# Cases whose time step was found within the stability limit, per code version: building a case
+# takes up to seconds (a full-scale stirred mill ~7 s), so each is built once.
+STEP_CHECKS = Path(".snakemake", "millsim", f"step-checks-{ENGINE}.json")
+try:
+    STEPS_CHECKED = set(json.loads(STEP_CHECKS.read_text()))
+except (OSError, ValueError):
+    STEPS_CHECKED = set()
+
+
+def check_step(study, sets):
+    """Build the case of ``study`` with parameters ``sets`` as `millsim run` does before it
+    compiles anything, where a step above the stability limit is refused. Called for the cases
+    Snakemake schedules (a study's space may hold many more), while it builds the jobs, before
+    any runs. Only a case whose step can exceed the limit is built: an absolute dt, or dt_factor
+    above 1 (the engine recommends a step below the limit of every interaction)."""
+    scene = get_scene(STUDIES[study].scene)
+    # the two step parameters alone first: resolving every case again costs seconds
+    step = {
+        p.name: p.parse(sets[p.name]) if p.name in sets else p.default
+        for p in scene.params
+        if p.name in ("dt", "dt_factor")
+    }
+    if not (step.get("dt", 0.0) > 0 or step.get("dt_factor", 1.0) > 1):
+        return
+    values = scene.resolve(sets)
+    key = json.dumps([scene.name, values], sort_keys=True)
+    if key in STEPS_CHECKED:
+        return
+    try:
+        scene.build(values)
+    except ValueError as exc:
+        raise WorkflowError(f"config {study}: {exc}") from None
+    STEPS_CHECKED.add(key)
+    with atomic_target(STEP_CHECKS) as tmp:
+        tmp.write_text(json.dumps(sorted(STEPS_CHECKED)))
+    for old in STEP_CHECKS.parent.glob("step-checks-*.json"):
+        if old != STEP_CHECKS:  # of other code versions
+            old.unlink(missing_ok=True)
 
 
 BALLMILL = config["ballmill"]
@@ -120,11 +185,13 @@ def case_label(study):
 
 
 def case_sets(study):
-    """Params function: the case's parameters as `--set key=value` arguments of `millsim run`."""
+    """Params function: the case's parameters as `--set key=value` arguments of `millsim run`,
+    once its time step is checked (check_step)."""
 
     def sets(wildcards):
         swept = {k: wildcards[k] for k in STUDIES[study].space.dataframe.columns}
         values = {**STUDIES[study].fixed, **swept}
+        check_step(study, values)
         # sorted: reordering the config must not look like a change of parameters
         return " ".join(
             f"--set {shlex.quote(f'{k}={v}')}" for k, v in sorted(values.items())

@@ -368,13 +368,19 @@ def cheapest_within(step, cost, within, contiguous=True):
 
 # ---- the study: cases -> tables ----------------------------------------------------------------
 
+# the columns of collect's table, which the aggregate reads
+TABLE_COLUMNS = ("name", "scene", "series", "ladder", "ladder_value", "seed", "dt", "dt_limit",
+                 "steps", "wall_time_s", "engine_hash", "millsim_version", "parameters_json",
+                 "path", "observable", "value", "units")
+
+
 def collect(paths, name, series, ladder):
     """One row per (case, observable) of one series: the long table the aggregate reads."""
     from ..io import case_parameters, read_case
 
     rows = []
     for path in paths:
-        ds = read_case(path)
+        ds = read_case(path, "*")
         a = ds.attrs
         scene = a["scene"]
         params = case_parameters(ds)
@@ -392,6 +398,21 @@ def collect(paths, name, series, ladder):
     if not rows:
         raise ValueError("cases: none given")
     return pd.DataFrame(rows)
+
+
+def read_tables(paths):
+    """The tables of collect as one DataFrame; a file of another kind is refused, naming it."""
+    from ..io import read_table
+
+    tables = []
+    for path in paths:
+        table = read_table(path)
+        missing = [c for c in TABLE_COLUMNS if c not in table.columns]
+        if missing:
+            raise ValueError(f"{path}: missing columns {missing}; not a table of `millsim analyse "
+                             "accuracy collect`")
+        tables.append(table)
+    return pd.concat(tables, ignore_index=True)
 
 
 def analyse(cases, tolerance=0.01, links=None, methods=None, decide=None, limit_fraction=1.0):

@@ -28,26 +28,46 @@ def swept_parameters(cases: Sequence[xr.Dataset]) -> list[str]:
     return [key for key in sorted(first) if any(p.get(key) != first[key] for p in rest)]
 
 
+def _name(ds: xr.Dataset, index: int) -> str:
+    return ds.encoding.get("source", f"case {index}")
+
+
 def stack_cases(cases: Sequence[xr.Dataset], over: Sequence[str],
                 coord_attrs: dict[str, dict] | None = None) -> xr.Dataset:
     """One Dataset with a dimension per parameter in ``over``, sorted by value.
 
-    Variables along the per-case dimensions are dropped, and so is a scalar variable named like a
-    stacking dimension (it becomes that coordinate). Global attributes equal in every case are kept
-    (scene, fixed parameters, engine hash); those that differ are dropped. ``coord_attrs`` gives the
-    units and long name of each stacking coordinate.
+    Every other parameter (the seed included) must be the same in every case, and no two cases
+    may be the same point: an aggregate holds one study, and a parameter that differed but was not
+    stacked would be lost. Variables along the per-case dimensions are dropped, and so is a scalar
+    variable named like a stacking dimension (it becomes that coordinate). Global attributes equal
+    in every case are kept (scene, fixed parameters, engine hash); those that differ are dropped.
+    ``coord_attrs`` gives the units and long name of each stacking coordinate.
     """
     if not over:
         raise ValueError("over: name at least one parameter to stack the cases along")
-    keys = []
-    for ds in cases:
-        params = case_parameters(ds)
-        for name in over:
-            if name not in params:
-                raise ValueError(f"{name}: not a parameter of scene {ds.attrs.get('scene')!r}")
-        keys.append(tuple(params[name] for name in over))
-    if len(set(keys)) < len(keys):
-        raise ValueError(f"over: several cases share the same values of {', '.join(over)}")
+    params = [case_parameters(ds) for ds in cases]
+    for name in over:
+        for i, (ds, p) in enumerate(zip(cases, params)):
+            if name not in p:
+                raise ValueError(f"{name}: not a parameter of scene {ds.attrs.get('scene')!r} "
+                                 f"({_name(ds, i)})")
+    for key in sorted(set().union(*params) - set(over)):
+        first = params[0].get(key)
+        for i, p in enumerate(params[1:], 1):
+            if p.get(key) != first:
+                raise ValueError(
+                    f"{key}: {first!r} in {_name(cases[0], 0)} but {p.get(key)!r} in "
+                    f"{_name(cases[i], i)}; cases to stack differ only in --over "
+                    f"({', '.join(over)}): stack over {key} too, or leave the odd case out")
+    keys = [tuple(p[name] for name in over) for p in params]
+    seen = {}
+    for i, key in enumerate(keys):
+        if key in seen:
+            point = ", ".join(f"{name}={value!r}" for name, value in zip(over, key))
+            raise ValueError(f"over: {_name(cases[seen[key]], seen[key])} and {_name(cases[i], i)} "
+                             f"are the same point ({point}); replicates need different seeds, "
+                             "stacked over seed")
+        seen[key] = i
 
     trimmed = [ds.drop_vars([name for name, var in ds.variables.items()
                              if name in over or set(var.dims) & set(PER_CASE_DIMS)])
@@ -83,10 +103,7 @@ def aggregate(scene: str, paths: Iterable[str | os.PathLike[str]],
     ``over`` defaults to the parameters that differ between the cases.
     """
     paths = [os.fspath(p) for p in paths]
-    cases = [read_case(p) for p in paths]
-    for path, ds in zip(paths, cases):
-        if ds.attrs.get("scene") != scene:
-            raise ValueError(f"{path}: a case of scene {ds.attrs.get('scene')!r}, not {scene!r}")
+    cases = [read_case(p, scene) for p in paths]
     over = list(over or swept_parameters(cases))
     per_case, summary = SCENE_SUMMARIES.get(scene, (_unchanged, _unchanged))
     stacked = summary(stack_cases([per_case(ds) for ds in cases], over, coord_attrs))

@@ -22,7 +22,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from ..io import case_parameters, read_case
+from ..io import case_parameters, read_case, read_table
 
 REFERENCE_COLUMNS = ("rpm", "fluid", "eta_exp", "net_power", "source")
 DRY = "dry"
@@ -30,7 +30,7 @@ DRY = "dry"
 
 def read_reference(path):
     """The reference power table, checked: required columns, numbers, a dry benchmark."""
-    ref = pd.read_csv(path, comment="#")
+    ref = read_table(path, comment="#")
     missing = [c for c in REFERENCE_COLUMNS if c not in ref.columns]
     if missing:
         raise ValueError(f"{path}: missing column(s) {missing}; need {list(REFERENCE_COLUMNS)}")
@@ -48,7 +48,7 @@ def case_table(paths):
     """One row per case: friction, eta, rpm, net power and its 95% half-width, path."""
     rows = []
     for path in paths:
-        ds = read_case(path)
+        ds = read_case(path, "stirred_mill")
         p = case_parameters(ds)
         rows.append(dict(friction=float(p["friction"]), eta=float(p["eta"]), rpm=float(p["rpm"]),
                          net_power=float(ds["net_power"]), net_power_ci=float(ds["net_power_ci"]),

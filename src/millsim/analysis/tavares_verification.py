@@ -74,9 +74,7 @@ def aggregate(paths):
     """
     cases = []
     for path in paths:
-        ds = read_case(path)
-        if ds.attrs.get("scene") != "single_particle":
-            raise ValueError(f"{path}: a case of scene {ds.attrs.get('scene')!r}, not single_particle")
+        ds = read_case(path, "single_particle")
         cases.append((case_parameters(ds), ds))
     out, coords = {}, {}
     attrs = {"source_cases": json.dumps([os.fspath(p) for p in paths])}

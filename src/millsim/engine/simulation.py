@@ -593,7 +593,7 @@ class Simulation:
         # the limit.
         if self.policy.dt is None:
             self.dt = min(self.dt, self.policy.dt_factor * self.dt_report.recommended)
-        if self.dt > self.dt_report.limit:
+        if self.dt_report.exceeds(self.dt):
             self.dt = self.dt_report.recommended
         self.accumulators.dissipation[N_AUDIT:] = np.nan  # the last powers belong to the old set
 

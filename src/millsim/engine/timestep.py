@@ -18,10 +18,14 @@ recommendation).
 """
 
 import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 
+# A step a few units of rounding above the limit is at the limit: dt_factor x the recommended step
+# lands there when the factor is the ratio of the two (5 x t_c/50 against t_c/10), up to rounding.
+ROUNDING = 4 * sys.float_info.epsilon
 STEPS_PER_CONTACT_LIMIT = 10
 STEPS_PER_CONTACT_RECOMMENDED = 50
 RAYLEIGH_LIMIT = 0.4
@@ -74,12 +78,16 @@ class TimeStepReport:
         found = [b for b in self.bounds if b.kind == kind]
         return min(found, key=lambda b: b.limit) if found else None
 
+    def exceeds(self, dt):
+        """Whether ``dt`` is above the limit (by more than rounding)."""
+        return dt > self.limit * (1 + ROUNDING)
+
     def check(self, dt):
         """Return dt if it is within the limit; raise TimeStepError naming the limit otherwise."""
         if not dt > 0:
             raise TimeStepError(f"dt: must be > 0, got {dt}")
         b = self.binding
-        if dt > b.limit:
+        if self.exceeds(dt):
             raise TimeStepError(
                 f"dt: {dt:.4g} s exceeds the stability limit {b.limit:.4g} s set by {b.interaction}; "
                 f"use dt <= {b.limit:.4g} s (recommended {self.recommended:.4g} s){b.advice}")

@@ -180,20 +180,34 @@ def _read(entry, source):
     if kind == "aggregate":
         from ..io import read_case
 
-        return read_case(source)
+        ds = read_case(source)
+        # a case has parameters_json (an aggregate of one case keeps it too) but no source_cases
+        if "parameters_json" in ds.attrs and "source_cases" not in ds.attrs:
+            raise ValueError(f"{source}: a case file; figure {entry.name} is drawn from an "
+                             f"aggregate ({entry.input}, `millsim aggregate` writes one)")
+        return ds
     if kind == "table":
-        import pandas as pd
+        from ..io import read_table
 
-        return pd.read_csv(source)
+        return read_table(source)
     return os.fspath(source)  # snapshots: the drawing function reads the frames itself
 
 
 def plot(kind, source, out):
-    """Draw figure ``kind`` from ``source`` (see the entry's input) to ``out``."""
+    """Draw figure ``kind`` from ``source`` (see the entry's input) to ``out``, atomically."""
+    from ..io import atomic_target
+
     entry, fields = find(kind)
-    out = os.fspath(out)
-    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    entry.function()(_read(entry, source), out, **fields)
+    data = _read(entry, source)
+    with atomic_target(out) as tmp:
+        try:
+            entry.function()(data, os.fspath(tmp), **fields)
+        except KeyError as exc:
+            # a readable file of another kind: what the figure is drawn from is missing
+            what = exc.args[0] if exc.args else exc
+            what = what if isinstance(what, str) and " " in what else f"no {what!r}"
+            raise ValueError(f"{source}: {what}; figure {kind} is drawn from {entry.input}") \
+                from None
 
 
 def listing():

@@ -2,13 +2,14 @@
 
 import os
 
-import h5py
 import numpy as np
 from matplotlib.animation import PillowWriter
 from matplotlib.cm import ScalarMappable
 from matplotlib.collections import EllipseCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+
+from ..io import open_snapshots
 
 
 def _frame(group):
@@ -22,8 +23,8 @@ def _frame(group):
 
 def animation(snapshots: str | os.PathLike[str], out: str, fps: int = 10) -> None:
     """GIF of an HDF5 snapshot file: grains coloured by speed, wall particles grey."""
-    with h5py.File(snapshots, "r") as f:
-        frames = [f["frames"][name] for name in sorted(f["frames"])]
+    with open_snapshots(snapshots) as group:
+        frames = [group[name] for name in sorted(group)]
         if not frames:
             raise ValueError(f"{snapshots}: no frames")
         position, radius, _, _ = _frame(frames[0])

@@ -27,7 +27,8 @@ from ..util.stats import steady_rate
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..models import Interaction, Material, MaterialTable, WeibullModel
 from ..models.breakage.weibull import WeibullSplit
-from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .base import (TIME_STEP_PARAMS, Param, Scene, check_particle_memory, record_steps, register,
+                   step_policy)
 from .driver import Case, Series
 
 G = 9.81
@@ -73,8 +74,28 @@ PARAMS = (
 def _check(values):
     if values["transient"] >= values["duration"]:
         raise ValueError("transient: must be shorter than duration")
+    if values["lifter_height"] >= values["drum_radius"]:
+        raise ValueError(f"lifter_height: {values['lifter_height']:g} m reaches the drum's axis; "
+                         f"allowed [0, drum_radius = {values['drum_radius']:g}) m")
+    # the largest raw grain must fit inside the lifters (and n_c needs drum_radius > grain_radius)
+    room = values["drum_radius"] - values["lifter_height"]
+    largest = values["grain_radius"] * (1 + values["grain_radius_spread"])
+    if largest >= room:
+        raise ValueError(f"grain_radius: the largest grain, {largest:g} m (grain_radius x (1 + "
+                         f"grain_radius_spread)), does not fit in the drum; allowed grain_radius "
+                         f"< (drum_radius - lifter_height) / (1 + grain_radius_spread) = "
+                         f"{room / (1 + values['grain_radius_spread']):g} m")
     if values["sieve_radius"] >= values["grain_radius"] * (1 - values["grain_radius_spread"]):
         raise ValueError("sieve_radius: must be below the smallest raw grain radius")
+    check_particle_memory("n_grains" if values["n_grains"] else "filling (n_grains from it)",
+                          grain_count(values))
+
+
+def grain_count(values):
+    """Raw grains: n_grains, or the filling of the drum at random 2D packing."""
+    raw_area = math.pi * values["grain_radius"] ** 2 * (1 + values["grain_radius_spread"] ** 2 / 3)
+    return values["n_grains"] or int(round(values["filling"] * RANDOM_PACKING_2D * math.pi
+                                           * values["drum_radius"] ** 2 / raw_area))
 
 
 def critical_speed(values):
@@ -138,8 +159,7 @@ def _random_grains(values, count, rng, occupied_x, occupied_r):
 def build(values):
     rng = np.random.default_rng(values["seed"])
     wall_x, wall_r = drum_wall(values, rng)
-    raw_area = math.pi * values["grain_radius"] ** 2 * (1 + values["grain_radius_spread"] ** 2 / 3)
-    n = values["n_grains"] or int(round(values["filling"] * RANDOM_PACKING_2D * math.pi * values["drum_radius"] ** 2 / raw_area))
+    n = grain_count(values)
     grains_x, grains_r = _random_grains(values, n, rng, wall_x, wall_r)
     x = np.vstack([wall_x, grains_x])
     radius = np.concatenate([wall_r, grains_r])
@@ -187,7 +207,7 @@ class BallMillCase(Case):
         self.split = (WeibullSplit(values["sieve_radius"], self.mass, "grain", self.rng)
                       if values["fragmentation"] else None)
         self.initial_mass = self.grain_mass()
-        self.record_steps = max(1, int(round(values["record_interval"] / sim.dt)))
+        self.record_steps = record_steps(values, sim.dt)
         self.total_steps = int(round(values["duration"] / sim.dt))
         self.snap_every = max(1, int(round(values["snapshot_interval"] / values["record_interval"])))
         cells = values["grid_cells"]

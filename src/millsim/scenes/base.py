@@ -9,12 +9,20 @@ with the key and its range before any work.
 """
 
 import math
+import numbers
+import os
+import re
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..engine import StepPolicy
+from ..engine import BYTES_PER_PARTICLE, StepPolicy
 
 from ..util.validation import check_range
+
+# Integer parameters are stored as 64-bit netCDF attributes; a float holds every integer only up
+# to 2^53, beyond which one given as a float (1e17, 2.0**60) may already have been rounded.
+INT64_MAX = 2**63 - 1
+FLOAT_EXACT = 2**53
 
 
 @dataclass(frozen=True)
@@ -45,12 +53,7 @@ class Param:
             else:
                 value = bool(raw)
         elif kind is int:
-            try:
-                value = int(float(raw)) if float(raw).is_integer() else None
-            except (TypeError, ValueError):
-                value = None
-            if value is None:
-                raise ValueError(f"{self.name}: must be an integer, got {raw!r}")
+            value = self._integer(raw)
         elif kind is float:
             try:
                 value = float(raw)
@@ -64,6 +67,29 @@ class Param:
             check_range(self.name, value, self.lo, self.hi, self.lo_open, self.hi_open)
         if kind is float and not math.isfinite(value):
             raise ValueError(f"{self.name}: must be finite, got {value!r}")
+        return value
+
+    def _integer(self, raw):
+        """An integer exactly as given: digits are read as they are, a number only where a float
+        is exact; and within 64 bits."""
+        if isinstance(raw, numbers.Integral):
+            value = int(raw)
+        elif isinstance(raw, str) and re.fullmatch(r"\s*[+-]?\d+\s*", raw):
+            value = int(raw)
+        else:
+            try:
+                number = float(raw)
+            except (TypeError, ValueError):
+                number = math.nan
+            if not number.is_integer():
+                raise ValueError(f"{self.name}: must be an integer, got {raw!r}")
+            if abs(number) >= FLOAT_EXACT:
+                raise ValueError(f"{self.name}: {raw!r} is beyond 2^53, where a floating-point "
+                                 "number may be rounded; write the integer with digits")
+            value = int(number)
+        if not -INT64_MAX - 1 <= value <= INT64_MAX:
+            raise ValueError(f"{self.name}: {value} is outside the allowed range "
+                             f"[{-INT64_MAX - 1}, {INT64_MAX}] (64-bit integers)")
         return value
 
     def describe(self):
@@ -139,6 +165,33 @@ TIME_STEP_PARAMS = (
 def step_policy(values, **kw):
     """The engine's StepPolicy from a scene's TIME_STEP_PARAMS (and impact_speed etc. in kw)."""
     return StepPolicy(dt=values["dt"] or None, dt_factor=values["dt_factor"], **kw)
+
+
+def check_particle_memory(key, count):
+    """Refuse, naming ``key``, a particle count whose engine arrays alone would not fit in this
+    machine's memory (a MemoryError or the OOM killer later, after the placement)."""
+    try:
+        memory = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # no sysconf (Windows): nothing to compare with
+        return
+    need = count * BYTES_PER_PARTICLE
+    if need > memory:
+        raise ValueError(f"{key}: {count} particles need at least {need / 1e9:.3g} GB of memory "
+                         f"({BYTES_PER_PARTICLE} B each), more than the {memory / 1e9:.3g} GB of "
+                         f"this machine; allowed up to {memory // BYTES_PER_PARTICLE} particles")
+
+
+def record_steps(values, dt, key="record_interval"):
+    """Steps between records of the interval ``values[key]`` [s] at the time step ``dt``.
+
+    An interval below the step is refused: it would record (and snapshot) every step, gigabytes
+    for a quick case.
+    """
+    interval = values[key]
+    if interval < dt:
+        raise ValueError(f"{key}: {interval:g} s is below the time step {dt:.4g} s; allowed "
+                         f"[{dt:.4g}, inf) s")
+    return int(round(interval / dt))
 
 
 @dataclass

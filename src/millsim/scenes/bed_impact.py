@@ -41,7 +41,7 @@ from ..models import Interaction, Material, MaterialTable, TavaresModel
 from ..models.breakage import tavares
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement
 from ..models.breakage.replacement import product_passing as replacement_passing
-from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .base import TIME_STEP_PARAMS, Param, Scene, record_steps, register, step_policy
 from .driver import Case, Series
 
 G = 9.81
@@ -95,7 +95,17 @@ PARAMS = (
 def _check(values):
     if values["layers"] > 1 and values["rings"] < 1:
         raise ValueError("rings: a bed of several layers needs at least 1 ring")
-    tavares.load_materials()  # a bad config/materials.yaml is refused before any job runs
+    # a bad materials file is refused before any job runs
+    path = values["materials_file"]
+    try:
+        materials = tavares.load_materials(path)
+        tavares.load_contacts(path)
+    except (ValueError, FileNotFoundError) as exc:
+        raise ValueError(f"materials_file: {exc}") from None
+    for name in (values["material"], "steel"):
+        if name not in materials:
+            raise ValueError(f"materials_file: {path} has no material {name!r}; it has "
+                             f"{sorted(materials)}")
 
 
 # ---- geometry ---------------------------------------------------------------------------------
@@ -269,6 +279,10 @@ class BedImpactCase(Case):
             self.walls.append(dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 0, 1),
                                    radius=radius_h, material="steel"))
         self.skin = 0.1 * d
+        # The drop's step follows from the sizes, not the positions: it (dt above the limit) and
+        # the record interval against it are checked on the unsettled bed, before the settling.
+        still = np.zeros((self.n_bed, 3))
+        record_steps(values, self._drop_simulation(self.x_bed, still, still)[0].dt)
         # stage 1: settle (breakage off: every fracture energy stays infinite)
         self.sim = self.settle = Simulation(SPEC, self.table, x=self.x_bed,
                                             radius=np.full(self.n_bed, r),
@@ -283,19 +297,16 @@ class BedImpactCase(Case):
         if self.settle_steps == 0:
             self._drop()
 
-    def _drop(self):
-        """Stage 2: the ball above the settled bed."""
-        values, r, settle = self.values, self.r, self.settle
+    def _drop_simulation(self, x_set, v_set, w_set):
+        """The drop: the ball just above the bed at ``x_set``; (Simulation, ball centre)."""
+        values, r = self.values, self.r
         name, mat = values["material"], self.mat
-        p = settle.particles
-        x_set, v_set, w_set = p.x.copy(), p.v.copy(), p.w.copy()
-        self.settle_ke = settle.kinetic_energy()
         Rb = 0.5 * values["ball_diameter"]
         top = float((x_set[:, 2] + r).max())
         gap = self.gap = values["ball_gap"]
         self.v_start = math.sqrt(max(self.v0**2 - 2.0 * G * gap, 0.0))
         x_ball = np.array([0.0, 0.0, top + gap + Rb])
-        sim = self.sim = Simulation(
+        sim = Simulation(
             SPEC, self.table, x=np.vstack([x_ball, x_set]),
             radius=np.concatenate([[Rb], np.full(self.n_bed, r)]),
             material=["steel"] + [name] * self.n_bed,
@@ -310,6 +321,16 @@ class BedImpactCase(Case):
                   "generation": np.zeros(self.n_bed + 1, dtype=int),
                   "dummy": np.zeros(self.n_bed + 1, dtype=bool),
                   "event_t10": np.zeros(self.n_bed + 1)})
+        return sim, x_ball
+
+    def _drop(self):
+        """Stage 2: the ball above the settled bed."""
+        values, settle = self.values, self.settle
+        name, mat = values["material"], self.mat
+        p = settle.particles
+        self.settle_ke = settle.kinetic_energy()
+        sim, x_ball = self._drop_simulation(p.x.copy(), p.v.copy(), p.w.copy())
+        self.sim = sim
         self.replace = TavaresReplacement({name: mat}, d_min=self.d_min, seed=values["seed"],
                                           dummy_as=values["dummy_as"],
                                           breakage_at=values["breakage_at"])
@@ -318,7 +339,7 @@ class BedImpactCase(Case):
         self.bed_mass0 = self.replace.resolved_mass(sim)
         self.m_ball = 1.0 / sim.particles.inv_mass[0]
         self.e_ball0 = 0.5 * self.m_ball * self.v_start**2 + self.m_ball * G * x_ball[2]
-        self.record_steps = max(1, int(round(values["record_interval"] / sim.dt)))
+        self.record_steps = record_steps(values, sim.dt)
         self.probe = max(1, self.record_steps // 20)  # finer chunks until the first contact
         self.dropping = True
         self._observe()

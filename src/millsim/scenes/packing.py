@@ -13,7 +13,7 @@ import numpy as np
 
 from ..engine import PhysicsSpec, Simulation, StepPolicy
 from ..models import Interaction, Material, MaterialTable
-from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, register
+from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, check_particle_memory, register
 from .driver import Case, Series
 
 PARAMS = (
@@ -41,6 +41,10 @@ PARAMS = (
 
 LATTICE = 2.2  # lattice spacing in radii, as in the LIGGGHTS baseline (2.2 mm for r = 1 mm)
 JITTER = 0.09  # lattice jitter in radii
+
+
+def _check(values):
+    check_particle_memory("n", values["n"])
 
 
 def _lattice(values, rng):
@@ -192,4 +196,4 @@ class PackingCase(Case):
 
 
 register(Scene("packing", "spheres settled in a box or tumbling in a rotating drum (benchmark case)",
-               PARAMS, PackingCase))
+               PARAMS, PackingCase, (_check,)))

@@ -62,7 +62,8 @@ from ..models.contact import hertz_contact_time
 from ..models.materials import effective_moduli
 from ..models.breakage import tavares_predictions as tv
 from ..util.stats import binomial_interval, bootstrap_interval
-from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .base import (TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register,
+                   step_policy)
 from .driver import Case
 
 SPEC = PhysicsSpec(dim=3, walls=True, gravity=False)
@@ -113,6 +114,9 @@ def _check(values):
     if values["mode"] == "repeated" and values["replacement"] and values["impacts"] < 1:
         raise ValueError("impacts: at least 1")
     _materials(values)  # a bad config/materials.yaml is refused before any job runs
+    # a drop-weight test has a striker per particle
+    check_particle_memory("n_particles",
+                          values["n_particles"] * (2 if values["mode"] == "drop_weight" else 1))
 
 
 @dataclasses.dataclass

@@ -28,7 +28,8 @@ from ..models.contact import linear_contact_time
 from ..models.lubrication import check_lubrication_params
 from ..models.materials import damping_ratio
 from ..util.stats import block_mean_ci
-from .base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .base import (TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register,
+                   step_policy)
 from .driver import Case, Series
 
 G = 9.81
@@ -114,6 +115,8 @@ def _check(values):
         raise ValueError("hole_radius: holes must lie between shaft and disk rim")
     # eta < 0, h_min >= h_max, h_max >= d/2: the engine's own check, before any job runs
     check_lubrication_params(values["eta"], values["h_min"], values["h_max"])
+    check_particle_memory("n_beads" if values["n_beads"] else "filling (n_beads from it)",
+                          geometry(values)["n_beads"])
 
 
 def geometry(values):
@@ -444,6 +447,14 @@ class StirredMillCase(Case):
             * self.record_steps
         self.transient = int(round(values["transient_revolutions"] * period / sim.dt
                                    / self.record_steps)) * self.record_steps
+        # the statistics need records after the transient (a shorter run ended in an IndexError)
+        if self.total - self.transient < 2 * self.record_steps:
+            per_record = self.record_steps * sim.dt / period
+            raise ValueError(
+                f"revolutions: {values['revolutions']:g} leaves fewer than 2 records after the "
+                f"{values['transient_revolutions']:g} transient revolutions (a record every "
+                f"{per_record:.3g} revolutions); allowed revolutions >= transient_revolutions + "
+                f"{2 * per_record:.3g}")
         self.smp = Sampler(values, g)
         self.attrs = dict(self.attrs, cg_slab_x=np.array(self.smp.slab))
         self.last = drive_state(sim) + (sim.time,)

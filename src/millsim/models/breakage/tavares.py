@@ -144,7 +144,7 @@ _REQUIRED_BREAKAGE = ("E_inf", "d0_mm", "phi", "sigma", "gamma", "A_percent", "b
 def _num(where, value, lo=None, hi=None, lo_open=True, hi_open=False):
     """A float within bounds, else ValueError naming the key and file (``where``)."""
     if isinstance(value, bool):
-        raise TypeError(f"{where}: must be a number, got {value!r}")
+        raise ValueError(f"{where}: must be a number, got {value!r}")
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -179,7 +179,7 @@ def _energy(where, entry):
 def _beta_pairs(where, entry):
     """Seven (alpha, beta) pairs keyed by n (all of N_VALUES, nothing else)."""
     if not isinstance(entry, dict):
-        raise TypeError(f"{where}: expected a mapping n -> [alpha, beta]")
+        raise ValueError(f"{where}: expected a mapping n -> [alpha, beta]")
     byn = {}
     for key, pair in entry.items():
         n = _num(f"{where} key", key, 1.0)
@@ -197,10 +197,28 @@ def _beta_pairs(where, entry):
 def _resolve(path):
     p = Path(path)
     if not p.is_absolute() and not p.exists():
-        repo = Path(__file__).resolve().parents[3] / p  # src/millsim/breakage -> repo root
+        repo = Path(__file__).resolve().parents[4] / p  # src/millsim/models/breakage -> repo root
         if repo.exists():
             return repo
     return p
+
+
+def _read_yaml(path):
+    """The mapping a materials file holds; a file that is missing, unreadable, not YAML or not a
+    mapping is refused with one line naming it."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: materials file not found") from None
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        reason = " ".join(str(exc).split())  # YAML's messages span lines
+        raise ValueError(f"{path}: not a readable YAML materials file ({reason})") from None
+    if not isinstance(doc, dict):
+        raise ValueError(f"{path}: a materials file is a YAML mapping (materials, model, "
+                         f"contacts), got {type(doc).__name__}")
+    return doc
 
 
 def load_materials(path="config/materials.yaml", truncation="bed"):
@@ -210,15 +228,10 @@ def load_materials(path="config/materials.yaml", truncation="bed"):
     single-particle verification) or "bed" (100, seed 002 bed validation; nearly untruncated,
     as the Table 4 fits were). Errors name the file and the offending key.
     """
-    import yaml
-
     path = _resolve(path)
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except FileNotFoundError:
-        raise FileNotFoundError(f"{path}: materials file not found") from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("materials"), dict):
-        raise TypeError(f"{path}: top-level key 'materials' (a mapping) is missing")
+    doc = _read_yaml(path)
+    if not isinstance(doc.get("materials"), dict):
+        raise ValueError(f"{path}: top-level key 'materials' (a mapping) is missing")
     model = doc.get("model") or {}
     ratios = model.get("emax_over_e50") or {}
     if truncation not in ratios:
@@ -238,7 +251,7 @@ def load_materials(path="config/materials.yaml", truncation="bed"):
     out = {}
     for name, entry in doc["materials"].items():
         if not isinstance(entry, dict):
-            raise TypeError(f"{path}: materials.{name}: expected a mapping")
+            raise ValueError(f"{path}: materials.{name}: expected a mapping")
         out[name] = _material(f"{path}: materials.{name}", name, {**defaults, **entry}, ratio, ks)
     return out
 
@@ -290,11 +303,27 @@ def _material(where, name, e, ratio, ks):
     return mat
 
 
-def load_contacts(path="config/materials.yaml"):
-    """The ``contacts`` table of the materials file (seed 002 Table 6), as given."""
-    import yaml
+CONTACT_PAIRS = ("particle_particle", "particle_steel", "steel_steel")
 
-    return dict(yaml.safe_load(_resolve(path).read_text()).get("contacts") or {})
+
+def load_contacts(path="config/materials.yaml"):
+    """The ``contacts`` table of the materials file (seed 002 Table 6): per pair of
+    CONTACT_PAIRS, static_friction, rolling_friction (>= 0) and restitution (in (0, 1])."""
+    path = _resolve(path)
+    contacts = _read_yaml(path).get("contacts")
+    if not isinstance(contacts, dict):
+        raise ValueError(f"{path}: top-level key 'contacts' (a mapping) is missing")
+    for pair in CONTACT_PAIRS:
+        entry = contacts.get(pair)
+        if not isinstance(entry, dict):
+            raise ValueError(f"{path}: contacts.{pair}: missing (a mapping of static_friction, "
+                             "rolling_friction, restitution)")
+        for key, lo, hi in (("static_friction", 0.0, None), ("rolling_friction", 0.0, None),
+                            ("restitution", 0.0, 1.0)):
+            if key not in entry:
+                raise ValueError(f"{path}: contacts.{pair}.{key}: missing")
+            _num(f"{path}: contacts.{pair}.{key}", entry[key], lo, hi, lo_open=key == "restitution")
+    return dict(contacts)
 
 
 # ---- eqs 1-3: fracture energy ---------------------------------------------------------------
