@@ -1,5 +1,6 @@
 """The Snakemake pipeline through its API: a small sweep, caching of finished cases, bad config."""
 
+import copy
 import math
 import os
 import re
@@ -137,6 +138,38 @@ def test_bad_config_is_refused_before_any_job(workdir, path, value, named):
     text = str(refused.value)
     where = text.split("Failed validating")[0] + "".join(re.findall(r"On instance\S*", text))
     assert named in where
+    assert not (workdir / "results").exists()
+
+
+SINGLE_PARTICLE = {
+    "probability": {"mode": "single", "material": ["copper_ore"], "energy_ratio": [1.0]},
+    "repeated": {"material": "copper_ore", "gamma": [5.0]},
+    "fragmentation": {"mode": "single", "material": ["copper_ore"], "energy_ratio": [2.0]},
+}
+
+
+@pytest.mark.parametrize("edit, message", [
+    # the material names are the materials file's, not the schema's
+    ({"single_particle": {"probability": {"material": ["copper_ore", "my_ore"]}}},
+     "config single_particle.probability: material: 'my_ore' not in config/materials.yaml; "
+     "known: copper_ore, granulite, limestone"),
+    ({"materials_file": "config/nosuch.yaml"},
+     "config single_particle.probability: config/nosuch.yaml: materials file not found"),
+    # one materials file for every case: the top-level key, not a scene parameter
+    ({"single_particle": {"parameters": {"materials_file": "config/materials.yaml"}}},
+     "materials_file"),
+])
+def test_materials_are_checked_against_the_file_before_any_job(workdir, edit, message):
+    config = {**tiny_config([0.5]), "single_particle": copy.deepcopy(SINGLE_PARTICLE)}
+    for key, value in edit.items():
+        if isinstance(value, dict):
+            for block, entries in value.items():
+                config[key].setdefault(block, {}).update(entries)
+        else:
+            config[key] = value
+    with pytest.raises(Exception) as refused:
+        snakemake(workdir, config, dryrun=True)
+    assert message in str(refused.value).split("Failed validating")[0]
     assert not (workdir / "results").exists()
 
 

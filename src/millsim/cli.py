@@ -80,7 +80,14 @@ def cmd_run(args):
     from .scenes.base import RunContext, get_scene
 
     scene = get_scene(args.scene)
-    values = scene.resolve(_parse_sets(args.set))
+    sets = _parse_sets(args.set)
+    if args.materials is not None:  # sugar for --set materials_file=FILE
+        if "materials_file" not in {p.name for p in scene.params}:
+            raise ValueError(f"--materials: scene {scene.name!r} takes no materials file")
+        if "materials_file" in sets:
+            raise ValueError("--materials: also given as --set materials_file; give one")
+        sets["materials_file"] = args.materials
+    values = scene.resolve(sets)
     # checked before the run: a case that cannot be written would be lost after all its work
     _check_out(args.out, suffix=".nc")
     out = Path(args.out)
@@ -378,6 +385,8 @@ def build_parser():
     p.add_argument("scene", help="scene name (see `millsim scenes`)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--out", required=True, help="output case file (.nc)")
+    p.add_argument("--materials", metavar="FILE", help="materials file of the scenes that take "
+                   "one (bed_impact, single_particle): --set materials_file=FILE")
     p.add_argument("--snapshots", help="optional particle snapshots (.h5, with an .xdmf sidecar)")
     p.add_argument("--threads", type=int, default=None,
                    help="threads of the compiled step loop (default: all numba has); systems of "

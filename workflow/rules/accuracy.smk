@@ -99,6 +99,8 @@ for _study, (_name, _series, _scene, _ladder) in ACCURACY_STUDIES.items():
     rule:
         name:
             f"simulate_{_study}"
+        input:
+            case_inputs(_scene),
         output:
             case=case_file(_study),
         log:

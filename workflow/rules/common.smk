@@ -48,13 +48,31 @@ class Study:
     fixed: dict  # parameter -> command-line string, the same for every case
 
 
+# The Tavares scenes' materials file (config `materials_file`, docs/materials.md): the same for
+# every case of the scenes that take one, and an input of their cases, so that editing it
+# re-runs them.
+MATERIALS_FILE = config["materials_file"]
+
+
+def scene_files(scene):
+    """Parameters of ``scene`` that the config sets once for all its cases: {materials_file}
+    for the scenes that take one."""
+    takes = "materials_file" in {p.name for p in get_scene(scene).params}
+    return {"materials_file": MATERIALS_FILE} if takes else {}
+
+
+def case_inputs(scene):
+    """Input files of a case of ``scene`` (its materials file, if it takes one)."""
+    return list(scene_files(scene).values())
+
+
 def make_study(block, scene, values, stack_over, **pinned):
     """The study of ``scene`` with ``values`` (lists are swept), each case checked by the scene.
 
     ``stack_over`` are swept even when given one value: the aggregate needs them as dimensions.
     ``pinned`` are set by the study itself, whatever the config says.
     """
-    values = {**values, **pinned}
+    values = {**values, **scene_files(scene), **pinned}
     swept = [
         *stack_over,
         *(k for k, v in values.items() if isinstance(v, list) and k not in stack_over),
@@ -98,7 +116,7 @@ def checked_study(block, scene, study):
             get_scene(scene).resolve(
                 {**study.fixed, **{k: str(v) for k, v in row._asdict().items()}}
             )
-        except ValueError as exc:
+        except (ValueError, FileNotFoundError) as exc:
             raise ValueError(f"config {block}: {exc}") from None
     return study
 

@@ -42,6 +42,8 @@ SINGLE_PARTICLE_STUDIES = [
 
 # Cached between workflows (`--cache`) like the ball-mill cases; wall time in the case file.
 rule simulate_single_particle_probability:
+    input:
+        case_inputs("single_particle"),
     output:
         case=case_file("single_particle_probability"),
     log:

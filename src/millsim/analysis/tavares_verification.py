@@ -126,6 +126,7 @@ def _probability(cases, out, coords, attrs):
             if var is not None:
                 arr[k][ix] = float(ds[var])
         attrs["prob_diameter_m"] = float(p["diameter"])
+        attrs["prob_materials_file"] = p["materials_file"]  # the model curves of the figure
     arr["inside"] = _inside(arr["analytic"], arr["ci_lo"], arr["ci_hi"], arr["fraction"])
     coords.update(prob_mode=("prob_mode", modes), prob_material=("prob_material", mats),
                   energy_ratio=("energy_ratio", np.array(ratios), ENERGY_RATIO))

@@ -26,7 +26,8 @@ def probability(ds, out):
     colours = matplotlib.colormaps["tab10"]
     markers = {"single": "o", "drop_weight": "s"}
     for j, mat_name in enumerate(ds["prob_material"].values):
-        mat = _material(str(mat_name))
+        path = ds.attrs.get("prob_materials_file", tavares.MATERIALS_FILE)
+        mat = _material(str(mat_name), path)
         share = float(np.nanmean(ds["prob_absorbed_share"].isel(prob_material=j)))
         d = float(ds.attrs.get("prob_diameter_m", 5.5e-3))
         E = ds["prob_specific_energy"].isel(prob_material=j)
@@ -151,5 +152,5 @@ def table2(ds, out):
     fig.savefig(out, dpi=120)
 
 
-def _material(name, truncation="single_particle"):
-    return tavares.load_materials(truncation=truncation)[name]
+def _material(name, path, truncation="single_particle"):
+    return tavares.load_materials(path, truncation=truncation)[name]

@@ -45,7 +45,6 @@ from .base import TIME_STEP_PARAMS, Param, Scene, record_steps, register, step_p
 from .driver import Case, Series
 
 G = 9.81
-MATERIALS = ("copper_ore", "limestone", "granulite")
 BROKEN_SIEVE = 4.75e-3  # m: "mass of material passing the initial narrow size" (4.75-6.3 mm)
 # sqrt(2) test-sieve series [m], 6.3 mm down to 38 um (seed Fig. 23 reaches 0.1 mm)
 SIEVES = np.array([6.3, 4.75, 3.35, 2.36, 1.7, 1.18, 0.85, 0.6, 0.425, 0.3, 0.212, 0.15, 0.106,
@@ -56,8 +55,7 @@ X_MIN = tavares.SIEVE_RATIO ** -tavares.STANDARD_CLASSES  # dummy size / parent 
 SPEC = PhysicsSpec(dim=3, walls=True, gravity=True, rolling_friction=True)
 
 PARAMS = (
-    Param("material", "copper_ore", "bed material (config/materials.yaml, seed 002 Tables 4-5)",
-          choices=MATERIALS),
+    Param("material", "copper_ore", "bed material: any breakable one of materials_file"),
     Param("rings", 3, "rings of particles around the central one in each layer", "1", 0, 10),
     Param("layers", 1, "layers of particles (1 = monolayer; more are held by the holder)", "1", 1, 10),
     Param("particle_diameter", 5.5e-3, "bed particle diameter", "m", 0.0, lo_open=True),
@@ -87,7 +85,8 @@ PARAMS = (
           "fragments nipped by the ball reach ~0.6-1)", "1", 0.0, 5.0, lo_open=True),
     Param("v_max", 1000.0, "guard: particle speed that stops the run (small fragments released from "
           "heavy compression are fast)", "m s-1", 0.0, lo_open=True),
-    Param("materials_file", "config/materials.yaml", "Tavares materials and Table 6 contact parameters"),
+    Param("materials_file", tavares.MATERIALS_FILE, "Tavares materials and Table 6 contact "
+          "parameters (docs/materials.md)"),
     Param("seed", 1, "seed of fracture energies, families and arrangements (replicates)", "1", 0),
 )
 
@@ -95,17 +94,8 @@ PARAMS = (
 def _check(values):
     if values["layers"] > 1 and values["rings"] < 1:
         raise ValueError("rings: a bed of several layers needs at least 1 ring")
-    # a bad materials file is refused before any job runs
-    path = values["materials_file"]
-    try:
-        materials = tavares.load_materials(path)
-        tavares.load_contacts(path)
-    except (ValueError, FileNotFoundError) as exc:
-        raise ValueError(f"materials_file: {exc}") from None
-    for name in (values["material"], "steel"):
-        if name not in materials:
-            raise ValueError(f"materials_file: {path} has no material {name!r}; it has "
-                             f"{sorted(materials)}")
+    # a bad materials file or material is refused before any job runs
+    tavares.check_material(values["materials_file"], values["material"])
 
 
 # ---- geometry ---------------------------------------------------------------------------------

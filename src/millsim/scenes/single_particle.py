@@ -68,14 +68,14 @@ from .driver import Case
 
 SPEC = PhysicsSpec(dim=3, walls=True, gravity=False)
 MODES = ("single", "drop_weight", "repeated")
-MATERIALS = ("copper_ore", "limestone", "granulite")
 SIEVES = tavares.SIEVE_RATIO ** -np.arange(0.0, 41.0)  # x/d0 from 1 to 2^-10
 GAP = 0.01  # initial gap to the plate / striker, in particle radii
 
 PARAMS = (
     Param("mode", "single", "single impact on a plate, drop-weight test (striker + anvil, two "
           "contacts summed), or repeated impacts", choices=MODES),
-    Param("material", "copper_ore", "particle material (config/materials.yaml)", choices=MATERIALS),
+    Param("material", "copper_ore", "particle material: any breakable one of materials_file"),
+    Param("materials_file", tavares.MATERIALS_FILE, "Tavares materials (docs/materials.md)"),
     Param("diameter", 5.5e-3, "particle diameter", "m", 0.0, lo_open=True),
     Param("specific_energy", 0.0, "set input (stressing) specific energy Ek/m; 0 = energy_ratio "
           "x the stressing-basis median E_inf[1+(d0/d)^phi]", "J kg-1", 0.0),
@@ -84,8 +84,8 @@ PARAMS = (
     Param("n_particles", 250, "particles stressed", "1", 1),
     Param("impacts", 20, "successive impacts (mode repeated)", "1", 1, 1000),
     Param("gamma", 0.0, "damage coefficient of eq 6; 0 = the material's (Table 4)", "1", 0.0),
-    Param("truncation", "single_particle", "Emax/E50 of config/materials.yaml: single_particle "
-          "(4, seed 002 verification) or bed (100)", choices=("single_particle", "bed")),
+    Param("truncation", "single_particle", "Emax/E50 of materials_file: single_particle "
+          "(4, seed 002 verification) or bed (100)", choices=tavares.TRUNCATIONS),
     Param("breakage_at", "first_reach", "when a particle breaks: first_reach (absorbed energy of the "
           "event reaches E) or end_of_loading (when the event ends, t10' from its whole energy)",
           choices=BREAKAGE_AT),
@@ -113,7 +113,8 @@ PARAMS = (
 def _check(values):
     if values["mode"] == "repeated" and values["replacement"] and values["impacts"] < 1:
         raise ValueError("impacts: at least 1")
-    _materials(values)  # a bad config/materials.yaml is refused before any job runs
+    # a bad materials file or material is refused before any job runs
+    tavares.check_material(values["materials_file"], values["material"])
     # a drop-weight test has a striker per particle
     check_particle_memory("n_particles",
                           values["n_particles"] * (2 if values["mode"] == "drop_weight" else 1))
@@ -145,7 +146,7 @@ class Setup:
 
 
 def _materials(values):
-    mats = tavares.load_materials(truncation=values["truncation"])
+    mats = tavares.load_materials(values["materials_file"], truncation=values["truncation"])
     mat = mats[values["material"]]
     if values["gamma"] > 0:
         mat = dataclasses.replace(mat, gamma=values["gamma"])
