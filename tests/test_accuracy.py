@@ -256,8 +256,9 @@ TINY = {
     },
     "accuracy": {
         "ballmill": {
-            "parameters": {"drum_radius": 0.02, "grain_radius": 0.002, "duration": 0.02,
-                           "transient": 0.01},
+            # a placeable charge: the workflow builds the dt_factor 2.5 cases to check their step
+            "parameters": {"drum_radius": 0.02, "grain_radius": 0.002, "filling": 0.3,
+                           "duration": 0.02, "transient": 0.01},
             "seed": [1, 2],
             "series": {
                 "gear": {"set": {"integrator": "gear"}, "ladder": {"dt_factor": [0.5, 1.0]}},

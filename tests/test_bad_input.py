@@ -5,7 +5,6 @@ simulation starts (nothing is compiled), so the table is cheap."""
 import os
 import signal
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest

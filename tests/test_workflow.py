@@ -120,10 +120,6 @@ def test_sweep_runs_once_and_reruns_only_the_changed_case(workdir):
     (("ballmill", "parameters", "dt"), 1e-3, "dt: 0.001 s exceeds the stability limit"),
     (("ballmill", "parameters", "n_grains"), 10**12, "n_grains: 1000000000000 particles need"),
     (("ballmill", "parameters", "grain_radius"), 0.05, "grain_radius: the largest grain"),
-    (("bed_impact",), {"parameters": {"materials_file": "nosuch.yaml"},
-                       "sweeps": [{"material": "copper_ore", "rings": 0, "layers": 1,
-                                   "impact_energy": 1.0, "seed": 1}]},
-     "materials_file: nosuch.yaml"),
 ])
 def test_bad_config_is_refused_before_any_job(workdir, path, value, named):
     config = tiny_config([0.5, 1.0])
