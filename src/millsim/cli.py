@@ -375,11 +375,13 @@ def build_parser():
     p.add_argument("scene", help="scene name (see `millsim scenes`)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--out", required=True, help="output case file (.nc)")
-    p.add_argument("--snapshots", help="optional particle snapshots (.h5, with an .xdmf sidecar)")
+    p.add_argument("--snapshots", help="optional particle snapshots (.h5 or .hdf5, with an .xdmf "
+                   "sidecar of the same name)")
     p.add_argument("--threads", type=int, default=None,
-                   help="threads of the compiled step loop (default: all numba has); systems of "
-                        "fewer than 2000 particles run on one thread, which is faster there "
-                        "(bench/RESULTS.md, serial fallback); results are identical either way")
+                   help="threads of the compiled step loop (default, and at most: all numba has; "
+                        "more is said on stderr and runs on those); systems of fewer than 2000 "
+                        "particles run on one thread, which is faster there (bench/RESULTS.md, "
+                        "serial fallback); results are identical either way")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_run)
 
