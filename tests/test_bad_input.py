@@ -72,6 +72,9 @@ NO_CONTACTS = MATERIALS[: MATERIALS.index("\ncontacts:")]
                                                                "the time step"),
     (["bed_impact", "--out", "c.nc", "--set", "rings=0", "--set", "record_interval=1e-12"],
      "record_interval: 1e-12 s is below the time step"),
+    # a run shorter than one record interval (it ended in 'the ball never reached the bed')
+    (["bed_impact", "--out", "c.nc", "--set", "record_interval=1"],
+     "record_interval: 1 s is longer than the impact (max_time); allowed (0, 0.02] s"),
     # the drop's step, checked before the settling (which compiles and runs)
     (["bed_impact", "--out", "c.nc", "--set", "rings=0", "--set", "dt=1e-3"],
      "dt: 0.001 s exceeds the stability limit"),
