@@ -4,6 +4,8 @@ simulation starts (nothing is compiled), so the table is cheap."""
 
 import os
 import signal
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -67,6 +69,9 @@ BAD_MATERIALS = "materials: [1, 2\n"  # not YAML
                                                                "the time step"),
     (["bed_impact", "--out", "c.nc", "--set", "rings=0", "--set", "record_interval=1e-12"],
      "record_interval: 1e-12 s is below the time step"),
+    # a run shorter than one record interval (it ended in 'the ball never reached the bed')
+    (["bed_impact", "--out", "c.nc", "--set", "record_interval=1"],
+     "record_interval: 1 s is longer than the impact (max_time); allowed (0, 0.02] s"),
     # the drop's step, checked before the settling (which compiles and runs)
     (["bed_impact", "--out", "c.nc", "--set", "rings=0", "--set", "dt=1e-3"],
      "dt: 0.001 s exceeds the stability limit"),
@@ -227,6 +232,43 @@ def test_interrupt_while_writing_ends_in_one_line_and_leaves_nothing(tmp_path, m
     assert one_line(capsys) == f"millsim: interrupted ({signal.Signals(signum).name})"
     assert files(tmp_path) == ["a.nc", "b.nc"]
     assert signal.getsignal(signal.SIGTERM) == handler  # main puts the old handler back
+
+
+def test_signals_during_a_compiled_chunk_wait_for_its_end():
+    """A KeyboardInterrupt raised inside numba's conversion of a chunk's results crashed the
+    interpreter: during a chunk a signal is recorded, and raised once the chunk is over."""
+    from millsim.engine.simulation import _signals_after_chunk
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with _signals_after_chunk():
+                signal.raise_signal(signal.SIGINT)
+                recorded = True  # reached: the handler did not raise inside the chunk
+        assert recorded
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_during_a_run(tmp_path):
+    """Ctrl-C while the compiled loop runs (it ended in a segmentation fault): one line, 130, no
+    case file. Runs the packing variant that test_cli compiles."""
+    out = tmp_path / "p.nc"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "millsim.cli", "run", "packing", "--set", "n=1200",
+         "--set", "settle_steps=100000000", "--out", str(out)],
+        stderr=subprocess.PIPE, text=True)
+    lines = []
+    for line in proc.stderr:  # the second progress line comes after chunks have run
+        lines.append(line)
+        if "%" in line:
+            break
+    proc.send_signal(signal.SIGINT)
+    lines += proc.stderr.readlines()
+    assert proc.wait(timeout=60) == 130, "".join(lines)
+    assert lines[-1].strip() == "millsim: interrupted (SIGINT)"
+    assert list(tmp_path.iterdir()) == []
 
 
 # ---- left-overs of killed runs -----------------------------------------------------------------

@@ -387,11 +387,13 @@ def build_parser():
     p.add_argument("--out", required=True, help="output case file (.nc)")
     p.add_argument("--materials", metavar="FILE", help="materials file of the scenes that take "
                    "one (bed_impact, single_particle): --set materials_file=FILE")
-    p.add_argument("--snapshots", help="optional particle snapshots (.h5, with an .xdmf sidecar)")
+    p.add_argument("--snapshots", help="optional particle snapshots (.h5 or .hdf5, with an .xdmf "
+                   "sidecar of the same name)")
     p.add_argument("--threads", type=int, default=None,
-                   help="threads of the compiled step loop (default: all numba has); systems of "
-                        "fewer than 2000 particles run on one thread, which is faster there "
-                        "(bench/RESULTS.md, serial fallback); results are identical either way")
+                   help="threads of the compiled step loop (default, and at most: all numba has; "
+                        "more is said on stderr and runs on those); systems of fewer than 2000 "
+                        "particles run on one thread, which is faster there (bench/RESULTS.md, "
+                        "serial fallback); results are identical either way")
     p.add_argument("--checkpoint-every", type=float, default=600.0, metavar="SECONDS",
                    help="save the running case to OUT.ckpt at most this often (wall time; 0: "
                         "save none); the same command resumes from it after an interruption, "

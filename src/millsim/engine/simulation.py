@@ -7,8 +7,11 @@ Simulation allocates their per-particle arrays, keeps them in step with added an
 particles, and hands their hooks to the loop.
 """
 
+import signal
+import threading
 import time
 from collections import namedtuple
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numba
@@ -95,6 +98,33 @@ def _model_fields(model, n):
 def _fields_tuple(model, arrays):
     """A model's per-particle arrays as the namedtuple its hooks receive (named by its fields)."""
     return namedtuple(f"{type(model).__name__}Fields", list(model.particle_fields))(*arrays)
+
+
+@contextmanager
+def _signals_after_chunk():
+    """Hold SIGINT and SIGTERM back while a compiled chunk runs.
+
+    A Python signal handler runs at the first bytecode after the signal, which after a chunk is
+    inside numba's conversion of its results to Python objects: the KeyboardInterrupt of Ctrl-C
+    raised there crashed the interpreter (SIGSEGV). During the chunk a signal is only recorded;
+    once the chunk has returned it is raised again for the handler that was there (~25 us a
+    chunk).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield  # handlers run in the main thread only
+        return
+    caught = []
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(signum) is not None:  # None: a handler not set from Python
+            previous[signum] = signal.signal(signum, lambda received, _: caught.append(received))
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        for signum in caught:
+            signal.raise_signal(signum)
 
 
 class Simulation:
@@ -422,9 +452,10 @@ class Simulation:
     def _run_chunk(self, runner, n):
         p, settings, bs, fp = self._bundles()
         self.accumulators.err[:] = 0
-        steps, contacts, events = runner(n, self.time, self.dt, self.step, p, self.contacts,
-                                         self._W, self._B, settings, self.accumulators, bs, fp,
-                                         self.events, not self._forces_current)
+        with _signals_after_chunk():
+            steps, contacts, events = runner(n, self.time, self.dt, self.step, p, self.contacts,
+                                             self._W, self._B, settings, self.accumulators, bs,
+                                             fp, self.events, not self._forces_current)
         self._forces_current = True
         done = int(steps)
         self.contacts = ContactList(*contacts)

@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from ..engine import Guards, PhysicsSpec, Simulation
+from ..engine import Guards, PhysicsSpec, Simulation, SimulationError
 from ..models import Interaction, Material, MaterialTable, TavaresModel
 from ..models.breakage import tavares
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement
@@ -94,6 +94,9 @@ PARAMS = (
 def _check(values):
     if values["layers"] > 1 and values["rings"] < 1:
         raise ValueError("rings: a bed of several layers needs at least 1 ring")
+    if values["record_interval"] > values["max_time"]:
+        raise ValueError(f"record_interval: {values['record_interval']:g} s is longer than the "
+                         f"impact (max_time); allowed (0, {values['max_time']:g}] s")
     # a bad materials file or material is refused before any job runs
     tavares.check_material(values["materials_file"], values["material"])
 
@@ -377,7 +380,10 @@ class BedImpactCase(Case):
                 if self.holder:
                     sim.disable_wall(1)
             elif sim.time > 10 * (self.gap / max(self.v_start, 1e-3)) + 0.01:
-                raise RuntimeError("bed_impact: the ball never reached the bed")
+                raise SimulationError(
+                    "bed_impact: the ball never reached the bed in the probes every "
+                    f"record_interval / 20 = {self.probe * sim.dt:.3g} s; a smaller "
+                    "record_interval probes finer")
             if sim.step % self.record_steps < self.probe:
                 self._observe()
             return
