@@ -186,6 +186,21 @@ def linear_contact_time(stiffness, m_eff, damping_rate):
     return math.pi / w, w0
 
 
+def linear_collision_time(w0, beta, clipped):
+    """Contact time of a linear spring-dashpot (damping rate 2 beta): it ends at zero overlap
+    (unclipped) or at zero force (clipped, Schwager & Poeschel 2007), also overdamped."""
+    if beta < w0:
+        w = math.sqrt(w0 * w0 - beta * beta)
+        return (math.pi - (0.0 if not clipped else math.atan2(2 * beta * w, w * w - beta * beta))) / w
+    if not clipped:
+        return math.inf  # an overdamped unclipped contact never reaches zero overlap again
+    if beta == w0:
+        return 2.0 / w0
+    root = math.sqrt(beta * beta - w0 * w0)
+    l1, l2 = beta - root, beta + root
+    return 2.0 * math.log(l2 / l1) / (l2 - l1)
+
+
 def tangential_dashpot_bound(gamma_t, dim, integrator):
     """Step bound of the Haff-Werner tangential force (``linear_hw``) below its Coulomb limit.
 

@@ -81,26 +81,20 @@ class Interaction:
 
 
 def linear_restitution(zeta, clipped):
-    """Restitution of a head-on collision with a linear spring-dashpot of damping ratio zeta.
-
-    Unclipped: e = exp(-pi zeta / sqrt(1 - zeta^2)). Clipped (Schwager & Poeschel 2007, Granular
-    Matter 9, 465): the force k x + c x' reaches zero first at t_c and e = exp(-beta t_c) for
-    zeta < 1; for zeta >= 1 the two decay rates l1 < l2 of the overdamped oscillator give
-    t_c = ln(l2 / l1) / (l2 - l1) * 2 / 2 and e = (l1 / l2)^(1 + 2 l1 / (l2 - l1)).
-    """
+    """Restitution of a head-on collision with a linear spring-dashpot of damping ratio zeta, in
+    units of w0 from its contact time t_c (``contact.linear_collision_time``): e = exp(-zeta t_c)
+    while underdamped (Schwager & Poeschel 2007, Granular Matter 9, 465, for the clipped end);
+    overdamped and clipped, with the decay rates l1 < l2 = 2 zeta - l1, e = (l1 / l2) exp(-l1 t_c)
+    (the same derivation with real exponents)."""
     if zeta <= 0.0:
         return 1.0
-    if not clipped:
-        return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta)) if zeta < 1.0 else 0.0
-    if zeta < 1.0:  # units of w0 = 1
-        w = math.sqrt(1.0 - zeta * zeta)
-        t_c = (math.pi - math.atan2(2.0 * zeta * w, w * w - zeta * zeta)) / w
+    t_c = law.linear_collision_time(1.0, zeta, clipped)
+    if math.isinf(t_c):
+        return 0.0
+    if zeta <= 1.0:
         return math.exp(-zeta * t_c)
-    if zeta == 1.0:
-        return math.exp(-2.0)  # the limit of both branches
-    root = math.sqrt(zeta * zeta - 1.0)
-    l1, l2 = zeta - root, zeta + root
-    return (l1 / l2) ** (1.0 + 2.0 * l1 / (l2 - l1))
+    l1 = zeta - math.sqrt(zeta * zeta - 1.0)
+    return l1 / (2.0 * zeta - l1) * math.exp(-l1 * t_c)
 
 
 @lru_cache(maxsize=None)

@@ -17,6 +17,7 @@ import numpy as np
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.state import disk_or_sphere_mass
 from ..models import Interaction, Material, MaterialTable
+from ..models.contact import linear_collision_time
 from ..models.materials import (damping_ratio, effective_moduli, hertz_beta_term,
                                 linear_restitution)
 from .base import CONVENTION_PARAM, SOLID_PARAMS, TIME_STEP_PARAMS, Param, Scene, register, step_policy
@@ -76,21 +77,6 @@ def analytic(values):
         return 1.0, HERTZ_TIME_FACTOR * xi_max / v
     beta_term = hertz_beta_term(values["restitution"], values["convention"])
     return values["restitution"], hertz_reference(m_eff, r_eff, e_star, beta_term, v, clipped)[1]
-
-
-def linear_collision_time(w0, beta, clipped):
-    """Contact time of a linear spring-dashpot (damping rate 2 beta): it ends at zero overlap
-    (unclipped) or at zero force (clipped, Schwager & Poeschel 2007), also overdamped."""
-    if beta < w0:
-        w = math.sqrt(w0 * w0 - beta * beta)
-        return (math.pi - (0.0 if not clipped else math.atan2(2 * beta * w, w * w - beta * beta))) / w
-    if not clipped:
-        return math.inf  # an overdamped unclipped contact never reaches zero overlap again
-    if beta == w0:
-        return 2.0 / w0
-    root = math.sqrt(beta * beta - w0 * w0)
-    l1, l2 = beta - root, beta + root
-    return 2.0 * math.log(l2 / l1) / (l2 - l1)
 
 
 def hertz_reference(m_eff, r_eff, e_star, beta_term, speed, clip):
