@@ -37,6 +37,7 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 MUTANTS = ROOT / "tools" / "mutants.yaml"
+PARTS = ("src", "tests", "config")
 REQUIRED = ("id", "file", "find", "replace", "tests", "why")
 # Files with functions the compiled loop calls or inlines (a mutant there needs a fresh cache).
 COMPILED = ("src/millsim/engine/", "src/millsim/models/contact.py", "src/millsim/models/lubrication.py",
@@ -62,13 +63,14 @@ def load_mutants(path=MUTANTS):
 
 
 def snapshot(ref, dest):
-    """src/ and tests/ of the working tree (ref None) or of a commit, copied into dest."""
+    """src/, tests/ and config/ (the materials file the scenes read) of the working tree (ref
+    None) or of a commit, copied into dest."""
     if ref is None:
-        for part in ("src", "tests"):
+        for part in PARTS:
             shutil.copytree(ROOT / part, dest / part,
                             ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
         return
-    archive = subprocess.run(["git", "-C", str(ROOT), "archive", ref, "src", "tests"],
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", ref, *PARTS],
                              check=True, capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
 
