@@ -4,8 +4,9 @@ The seed's measured power curves exist only as figures, so no numbers are taken 
 script runs the engine itself at a finer time step (``dt_factor``), another random seed and stated
 "true" parameters (friction, and one simulation viscosity per fluid), and writes the reference
 table in the schema of ``config/reference/stirred_mill_power.csv``: rpm, fluid, eta_exp,
-net_power, source. For a twin, eta_exp is the generating eta_sim, so a working calibration returns
-eta_sim = eta_exp and mu = the stated friction.
+net_power, net_power_ci (the twin case's own 95 % half-width), source. For a twin, eta_exp is the
+generating eta_sim, so a working calibration returns eta_sim = eta_exp and mu = the stated
+friction (the source names it; `millsim report` checks that the calibration recovers both).
 
     python workflow/scripts/stirred_mill_twin.py --config config/config.yaml \
         --out config/reference/stirred_mill_power.csv [--jobs 2]
@@ -61,10 +62,10 @@ def main():
                 out = Path("results/twin") / f"{fluid}_rpm{rpm}.nc"
                 out.parent.mkdir(parents=True, exist_ok=True)
                 jobs[(fluid, eta, rpm)] = pool.submit(run_case, {**base, "eta": eta, "rpm": rpm}, out)
-    lines = ["rpm,fluid,eta_exp,net_power,source"]
+    lines = ["rpm,fluid,eta_exp,net_power,net_power_ci,source"]
     for (fluid, eta, rpm), job in jobs.items():
         power, ci, dt, engine = job.result()
-        lines.append(f"{rpm},{fluid},{eta},{power:.6g},synthetic twin not a measurement: millsim "
+        lines.append(f"{rpm},{fluid},{eta},{power:.6g},{ci:.2g},synthetic twin not a measurement: millsim "
                      f"engine {engine} stirred_mill friction {TRUE_FRICTION} eta_sim {eta} "
                      f"dt {dt:.3g} s (dt_factor {DT_FACTOR}) seed {SEED} +-{ci:.2g} W (95%)")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
