@@ -194,12 +194,16 @@ def _read(entry, source):
 
 
 def plot(kind, source, out):
-    """Draw figure ``kind`` from ``source`` (see the entry's input) to ``out``, atomically."""
+    """Draw figure ``kind`` from ``source`` (see the entry's input) to ``out``, atomically, in the
+    one style of millsim.plots.style."""
+    import matplotlib
+
     from ..io import atomic_target
+    from .style import RC
 
     entry, fields = find(kind)
     data = _read(entry, source)
-    with atomic_target(out) as tmp:
+    with atomic_target(out) as tmp, matplotlib.rc_context(RC):
         try:
             entry.function()(data, os.fspath(tmp), **fields)
         except KeyError as exc:

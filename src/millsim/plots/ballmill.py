@@ -15,6 +15,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.ticker import LogFormatter
 
+from .style import SYMBOL, label
+
 SPEED = "n_over_nc"
 REFERENCE_END = 1.232  # zero of the Bond/Austin speed factor
 
@@ -33,7 +35,10 @@ def bond_austin_speed_factor(phi):
 
 
 def _label(var: xr.DataArray, name: str | None = None) -> str:
-    return f"{name or var.attrs.get('long_name', var.name)} [{var.attrs.get('units', '?')}]"
+    return label(name or var.attrs.get("long_name", var.name), var.attrs.get("units", "1"))
+
+
+N_NC = SYMBOL["n_over_nc"]
 
 
 def _variants(ds: xr.Dataset):
@@ -55,22 +60,24 @@ def rate(ds: xr.Dataset, out: str) -> None:
     """Fig. 6: relative comminution rate vs n/n_c, the empirical power shape, drive power."""
     fig = Figure(figsize=(7, 7.5), layout="constrained")
     ax_rate, ax_power = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
-    for label, sub in _variants(ds):
-        suffix = f" ({label})" if label else ""
-        ax_rate.errorbar(sub[SPEED], sub["relative_rate"], yerr=sub["relative_rate_ci"], fmt="o--",
-                         capsize=3, label=f"simulation, 95% interval{suffix}")
-        ax_power.plot(sub[SPEED], sub["mean_drive_power"], "s-", label=f"simulation{suffix}")
+    for lab, sub in _variants(ds):
+        suffix = f" ({lab})" if lab else ""
+        ax_rate.errorbar(sub[SPEED], sub["relative_rate"], yerr=sub["relative_rate_ci"], fmt="o-",
+                         label=f"simulation, 95 % interval{suffix}")
+        ax_power.plot(sub[SPEED], sub["mean_drive_power"], "o-", label=f"simulation{suffix}")
     phi = np.linspace(0.0, REFERENCE_END, 400)
     ax_rate.plot(phi, bond_austin_speed_factor(phi), "k-", lw=1,
                  label="empirical reference shape: Bond/Austin speed factor\n"
                        r"$\varphi\,(1-0.1/2^{9-10\varphi})$, normalised")
-    ax_rate.set(ylabel=_label(ds["relative_rate"], "relative comminution rate"), ylim=(0, None),
-                title="Comminution rate vs rotation speed")
-    ax_rate.legend(fontsize="small", loc="upper left")
-    ax_power.set(xlabel=_label(ds[SPEED], "rotation speed n/n_c"),
+    # head room above the highest interval for the legend
+    top = max(1.0, float((ds["relative_rate"] + ds["relative_rate_ci"]).max()))
+    ax_rate.set(ylabel=_label(ds["relative_rate"], "relative comminution rate"),
+                ylim=(0, 1.4 * top), title="Comminution rate vs rotation speed")
+    ax_rate.legend(loc="upper left")
+    ax_power.set(xlabel=_label(ds[SPEED], f"rotation speed {N_NC}"),
                  ylabel=_label(ds["mean_drive_power"], "mean drive power"), ylim=(0, None),
                  title="Drive power")
-    ax_power.legend(fontsize="small")
+    ax_power.legend()
     fig.savefig(out)
 
 
@@ -78,45 +85,56 @@ def size_distributions(ds: xr.Dataset, out: str) -> None:
     """Fig. 5: mass fraction per size class for each speed, mean and spread over snapshots."""
     variants = list(_variants(ds))
     fig = Figure(figsize=(7, 4.5 * len(variants)), layout="constrained")
-    for ax, (label, sub) in zip(fig.subplots(len(variants), 1, squeeze=False)[:, 0], variants):
+    for ax, (lab, sub) in zip(fig.subplots(len(variants), 1, squeeze=False)[:, 0], variants):
         radius_um = sub["size_class"] * 1e6  # LogFormatter writes numbers >= 1 plainly
         for speed, colour in _speed_colours(sub):
             mean = sub["mass_fraction"].sel({SPEED: speed})
             std = sub["mass_fraction_std"].sel({SPEED: speed})
-            ax.plot(radius_um, mean, "o-", ms=3, color=colour, label=f"n/n_c = {speed:g}")
+            ax.plot(radius_um, mean, "o-", ms=3, color=colour, label=f"{N_NC} = {speed:g}")
             ax.fill_between(radius_um, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
-        ax.set(xscale="log", xlabel="grain radius (size-class centre) [\u00b5m]",
+        ax.set(xscale="log", xlabel=label("grain radius (size-class centre)", r"$\mu$m"),
                ylabel=_label(sub["mass_fraction"], "mass fraction per size class"),
-               title="Fragment size distribution" + (f" ({label})" if label else "")
+               title="Fragment size distribution" + (f" ({lab})" if lab else "")
                + "\nline: mean over snapshots, band: \u00b11 standard deviation")
         ax.xaxis.set_major_formatter(LogFormatter())
         ax.xaxis.set_minor_formatter(LogFormatter(minor_thresholds=(2, 1)))
-        ax.legend(fontsize="small", ncols=2)
+        ax.legend(ncols=2)
     fig.savefig(out)
 
 
-def _maps(ds: xr.Dataset, name: str, title: str, out: str) -> None:
-    """One map of ``name`` per case on a shared grey scale, with the drum outline."""
-    panels = [(label, sub.sel({SPEED: s}), s)
-              for label, sub in _variants(ds) for s in sub[SPEED].values]
+def _maps(ds: xr.Dataset, name: str, title: str, out: str, cap: float | None = None) -> None:
+    """One map of ``name`` per case on one shared grey scale, with the drum outline; coordinates
+    in mm. ``cap``: the scale ends at this percentile of the non-zero cells (a single hot cell
+    would otherwise leave every other one white); cells above it are drawn black."""
+    panels = [(lab, sub.sel({SPEED: s}), s)
+              for lab, sub in _variants(ds) for s in sub[SPEED].values]
     ncols = min(len(panels), 4)
     nrows = -(-len(panels) // ncols)
-    fig = Figure(figsize=(3.2 * ncols + 1, 3.3 * nrows + 0.6), layout="constrained")
+    fig = Figure(figsize=(2.9 * ncols + 1, 2.9 * nrows + 0.6), layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
-    norm = Normalize(0.0, float(ds[name].max()) or 1.0)  # all zero: white, not a symmetric scale
-    for ax, (label, case, speed) in zip(axes, panels):
-        mesh = ax.pcolormesh(case["gx"], case["gy"], case[name], shading="nearest", cmap="Greys",
-                             norm=norm)
+    values = ds[name].values
+    top = float(np.nanmax(values))
+    if cap is not None and (values > 0).any():
+        top = float(np.nanpercentile(values[values > 0], cap))
+    norm = Normalize(0.0, top or 1.0)  # all zero: white, not a symmetric scale
+    for ax, (lab, case, speed) in zip(axes, panels):
+        mesh = ax.pcolormesh(case["gx"] * 1e3, case["gy"] * 1e3, case[name], shading="nearest",
+                             cmap="Greys", norm=norm)
         radius = float(case["drum_radius"]) if "drum_radius" in case.coords \
             else float(ds.attrs["param_drum_radius"])
-        ax.add_patch(Circle((0.0, 0.0), radius, fill=False, color="tab:red", lw=1))
-        ax.set(aspect="equal", title=f"n/n_c = {speed:g}" + (f"\n{label}" if label else ""),
-               xlabel=_label(case["gx"], "x"), ylabel=_label(case["gy"], "y"))
+        ax.add_patch(Circle((0.0, 0.0), radius * 1e3, fill=False, color="tab:red", lw=1))
+        ax.set(aspect="equal", title=f"{N_NC} = {speed:g}" + (f"\n{lab}" if lab else ""),
+               xlabel=label("x", "mm"), ylabel=label("y", "mm"))
+        ax.grid(False)
         ax.locator_params(nbins=4)
     for ax in axes[len(panels):]:
         ax.set_visible(False)
-    fig.colorbar(mesh, ax=axes.tolist(), label=_label(ds[name], title.lower()), shrink=0.8)
-    fig.suptitle(f"{title} (drum outline in red)")
+    what = _label(ds[name], title.lower())
+    if cap is not None and top < float(np.nanmax(values)):
+        what += f"\n(scale ends at the {cap:g}th percentile: {top:.3g})"
+    fig.colorbar(mesh, ax=axes.tolist(), label=what, shrink=0.8,
+                 extend="max" if top < float(np.nanmax(values)) else "neither")
+    fig.suptitle(f"{title} (drum outline in red; one grey scale for all panels)")
     fig.savefig(out)
 
 
@@ -127,7 +145,7 @@ def fragmentation_maps(ds: xr.Dataset, out: str) -> None:
 
 def pressure_maps(ds: xr.Dataset, out: str) -> None:
     """Fig. 12: time-averaged local pressure, per rotation speed."""
-    _maps(ds, "pressure", "Time-averaged pressure", out)
+    _maps(ds, "pressure", "Time-averaged pressure", out, cap=99.0)
 
 
 def force_chains(ds: xr.Dataset, out: str) -> None:
@@ -137,14 +155,14 @@ def force_chains(ds: xr.Dataset, out: str) -> None:
     panels = {ax_count: ("chain_length", "chain_count"),
               ax_pressure: ("chain_length", "chain_max_pressure"),
               ax_force: ("chain_position", "chain_force_profile")}
-    for label, sub in _variants(ds):
+    for lab, sub in _variants(ds):
         for speed, colour in _speed_colours(sub):
             case = sub.sel({SPEED: speed})
             # log axis: a length without chains is a gap, not a drop
             case["chain_count"] = case["chain_count"].where(case["chain_count"] > 0)
             for ax, (x, y) in panels.items():
                 ax.plot(case[x], case[y], "o-", color=colour,
-                        label=f"n/n_c = {speed:g}" + (f", {label}" if label else ""))
+                        label=f"{N_NC} = {speed:g}" + (f", {lab}" if lab else ""))
     ax_count.set(yscale="log", xlabel=_label(ds["chain_length"], "chain length L"),
                  ylabel=_label(ds["chain_count"], "number of chains"),
                  title="Chain-length distribution")
@@ -161,6 +179,6 @@ def force_chains(ds: xr.Dataset, out: str) -> None:
     for ax in (ax_count, ax_pressure):
         ax.set_xticks(ticks, [f"{t:g}" for t in ticks[:-1]] + [f"\u2265{lengths[-1]:g}"])
     for ax in panels:
-        ax.legend(fontsize="small")
+        ax.legend()
     fig.suptitle("Force chains (run without fragmentation)")
     fig.savefig(out)

@@ -5,156 +5,230 @@ typology bars (Fig 9), collision-frequency region maps (Fig 8) and coarse-graine
 """
 
 import numpy as np
+from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
-from ..analysis.stirred_mill import friction_ssr
+from ..analysis.stirred_mill import ENERGY_BALANCE_TOLERANCE, friction_interval, friction_ssr
+from .style import SYMBOL, dodge_step, few_points_note, label, points
 
-SYNTHETIC_NOTE = "reference: see config/reference/SOURCES.md (shipped: synthetic twin, not a measurement)"
+SYNTHETIC_NOTE = ("reference: see config/reference/SOURCES.md "
+                  "(shipped: SYNTHETIC twin, not a measurement)")
+RPM = label("agitator speed", "min-1")
+POWER = label("net power", "W")
+ETA, ETA_SIM, ETA_EXP, MU = SYMBOL["eta"], SYMBOL["eta_sim"], SYMBOL["eta_exp"], SYMBOL["mu"]
+TYPOLOGY_COLOURS = {"impact": "C0", "shearing": "C2", "rolling": "C3", "torsion": "C1"}
 
 
 def _cases(ds):
     """(label, sub-dataset) for every (eta, rpm) of an aggregate stacked over eta and rpm."""
     for eta in ds["eta"].values:
         for rpm in ds["rpm"].values:
-            yield f"eta {eta:g} Pa s, {rpm:g} rpm", ds.sel(eta=eta, rpm=rpm)
+            yield f"{ETA} = {eta:g} Pa s, {rpm:g} min$^{{-1}}$", ds.sel(eta=eta, rpm=rpm)
 
 
 def power(ds, out):
-    """Net power vs agitator speed, one curve per simulation viscosity (95% intervals)."""
-    fig = Figure(figsize=(6.5, 4.5), layout="constrained")
+    """Net power vs agitator speed, one set of points per simulation viscosity (95% intervals)."""
+    fig = Figure(figsize=(6.0, 4.2), layout="constrained")
     ax = fig.subplots()
+    n = 0
     for eta in ds["eta"].values:
         sub = ds.sel(eta=eta)
-        ax.errorbar(sub["rpm"], sub["net_power"], yerr=sub["net_power_ci"], fmt="o-", capsize=3,
-                    label=f"eta_sim = {eta:g} Pa s")
+        n = points(ax, sub["rpm"], sub["net_power"], sub["net_power_ci"],
+                   label=f"{ETA_SIM} = {eta:g} Pa s")
+    few_points_note(ax, n, "speed")
     fr = ds.attrs.get("param_friction", "")
-    ax.set(xlabel="agitator speed [min-1]", ylabel="net power [W]", ylim=(0, None),
-           title=f"Net power vs speed and viscosity (mu = {fr}, domain of the case files)")
+    ax.set(xlabel=RPM, ylabel=POWER, ylim=(0, None),
+           title=f"Net power vs speed and viscosity ({MU} = {fr}; power of the simulated domain)")
     ax.legend()
-    fig.savefig(out, dpi=120)
+    fig.savefig(out)
+
+
+def typology_figure(ds):
+    """The typology figure: signed shares of the dissipated energy per case, bars from 0 (a
+    negative share goes below 0, no bar above 100 %), each case's net total annotated; below, the
+    energy-balance residual on its own scale with each value written."""
+    cases = list(_cases(ds))
+    names = [str(n) for n in ds["typology"].values]
+    fracs = np.array([100 * sub["typology_fraction"].values for _, sub in cases])
+    shown = [k for k, n in enumerate(names) if np.any(fracs[:, k] != 0)]
+    fig = Figure(figsize=(max(6.0, 1.6 * len(cases) + 1), 6.6), layout="constrained")
+    ax, ax2 = fig.subplots(2, 1, height_ratios=(3, 1.3))
+    x = np.arange(len(cases))
+    width = 0.8 / max(len(shown), 1)
+    for j, k in enumerate(shown):
+        bars = ax.bar(x + (j - (len(shown) - 1) / 2) * width, fracs[:, k], width,
+                      color=TYPOLOGY_COLOURS.get(names[k]), label=names[k])
+        ax.bar_label(bars, fmt="%.1f", fontsize=6.5, padding=1)
+    ax.axhline(0, color="k", lw=0.8)
+    lo = min(0.0, float(np.nanmin(fracs))) - 8
+    for i, (_, sub) in enumerate(cases):
+        total = float(np.nansum(fracs[i]))
+        watts = float(sub["dissipation_power"].sum())
+        ax.text(i, 100, f"sum {total:.0f} %\nof {watts:.2g} W", ha="center", va="bottom",
+                fontsize=7.5)
+    ax.set_xticks(x, [lab.replace(", ", "\n") for lab, _ in cases])
+    ax.set(ylabel="share of the dissipated energy [%]", ylim=(lo, 118),
+           title="Dissipation by contact typology (signed shares; torsion = 0: no twisting "
+                 "torque in the model)")
+    ax.legend(ncols=len(shown), loc="upper left")
+    ax.grid(False, axis="x")
+    errors = np.array([100 * float(sub["energy_balance_error"]) for _, sub in cases])
+    ax2.bar(x, errors, 0.5, color="0.45")
+    ax2.axhline(0, color="k", lw=0.8)
+    span = max(float(np.nanmax(np.abs(errors))), 1e-6) * 1.8
+    for i, e in enumerate(errors):
+        ax2.text(i, e, f"{e:+.3g} %", ha="center", va="bottom" if e >= 0 else "top", fontsize=7.5)
+    tol = 100 * ENERGY_BALANCE_TOLERANCE
+    ax2.set(ylim=(-span, span), ylabel="residual\n[% of input]",
+            title=f"Energy-balance residual (own scale; tolerance \u00b1{tol:g} %"
+                  + (", off scale)" if span < tol else ")"))
+    if span >= tol:
+        for sign in (-1, 1):
+            ax2.axhline(sign * tol, color="r", lw=0.8, ls="--")
+    ax2.set_xticks(x, [lab.replace(", ", "\n") for lab, _ in cases])
+    ax2.grid(False, axis="x")
+    return fig
 
 
 def typology(ds, out):
-    """Dissipated energy by contact typology per case (stacked %), and energy-balance closure."""
-    labels, fracs, totals, errors = [], [], [], []
-    for label, sub in _cases(ds):
-        labels.append(label.replace(", ", "\n"))
-        fracs.append(100 * sub["typology_fraction"].values)
-        totals.append(float(sub["dissipation_power"].sum()))
-        errors.append(100 * float(sub["energy_balance_error"]))
-    fracs = np.array(fracs)
-    fig = Figure(figsize=(max(6, 1.3 * len(labels)), 7), layout="constrained")
-    ax, ax2 = fig.subplots(2, 1, height_ratios=(3, 1.2))
-    bottom = np.zeros(len(labels))
-    for k, name in enumerate(ds["typology"].values):
-        ax.bar(labels, fracs[:, k], bottom=bottom, label=str(name))
-        bottom += fracs[:, k]
-    for x, tot in enumerate(totals):
-        ax.text(x, 101, f"{tot:.2g} W", ha="center", fontsize="small")
-    ax.set(ylabel="% of dissipated energy", ylim=(0, 112),
-           title="Dissipation by contact typology\n(torsion = 0: no twisting torque in the model)")
-    ax.legend(ncol=4, fontsize="small", loc="lower right")
-    ax.tick_params(axis="x", labelsize="x-small")
-    ax2.bar(labels, errors, color="grey")
-    ax2.axhline(2, color="r", lw=0.8, ls="--")
-    ax2.axhline(-2, color="r", lw=0.8, ls="--")
-    ax2.set(ylabel="energy balance\nresidual [% of input]")
-    ax2.tick_params(axis="x", labelsize="x-small")
-    fig.savefig(out, dpi=120)
+    """Dissipated energy by contact typology per case, and energy-balance closure."""
+    typology_figure(ds).savefig(out)
 
 
 def regions(ds, out):
-    """Relative collision frequency (%) in the 9 regions: rings 1-3 x front/centre/back."""
+    """Relative collision frequency (%) in the 9 regions: rings 1-3 x front/centre/back, one
+    colour scale for all panels."""
     cases = list(_cases(ds))
-    cols = min(3, len(cases))
+    cols = min(2, len(cases))
     rows = int(np.ceil(len(cases) / cols))
-    fig = Figure(figsize=(3.2 * cols, 2.9 * rows), layout="constrained")
+    fig = Figure(figsize=(3.3 * cols + 1, 2.9 * rows + 0.4), layout="constrained")
     axes = np.atleast_1d(fig.subplots(rows, cols)).ravel()
-    for ax, (label, sub) in zip(axes, cases):
-        grid = sub["collision_frequency_relative"].values.reshape(3, 3)[::-1]  # outer ring on top
-        ax.imshow(grid, cmap="Oranges", vmin=0, vmax=max(25, grid.max()))
+    grids = [sub["collision_frequency_relative"].values.reshape(3, 3)[::-1] for _, sub in cases]
+    norm = Normalize(0, max(25.0, max(float(g.max()) for g in grids)))
+    for ax, (lab, _), grid in zip(axes, cases, grids):  # outer ring on top
+        im = ax.imshow(grid, cmap="Oranges", norm=norm)
         for r in range(3):
             for c in range(3):
-                ax.text(c, r, f"{3 - r}{'FCB'[c]}\n{grid[r, c]:.1f}%", ha="center", va="center",
-                        fontsize="small")
+                ax.text(c, r, f"{3 - r}{'FCB'[c]}\n{grid[r, c]:.1f} %", ha="center", va="center",
+                        fontsize=7.5)
         ax.set(xticks=range(3), xticklabels=["front", "centre", "back"], yticks=range(3),
-               yticklabels=["ring 3", "ring 2", "ring 1"], title=label)
-        ax.title.set_fontsize("small")
+               yticklabels=["ring 3", "ring 2", "ring 1"], title=lab)
+        ax.grid(False)
     for ax in axes[len(cases):]:
         ax.set_visible(False)
-    fig.suptitle("Relative bead-bead collision frequency by region")
-    fig.savefig(out, dpi=120)
+    fig.colorbar(im, ax=axes.tolist(), label="share of bead-bead collisions [%]", shrink=0.8)
+    fig.suptitle("Relative bead-bead collision frequency by region (one colour scale)")
+    fig.savefig(out)
 
 
 def velocity(ds, out):
-    """Coarse-grained translational and rotational speed on the axial slab, per case."""
+    """Coarse-grained translational and rotational speed on the axial slab, per case; one colour
+    scale per quantity, shared by all cases."""
     cases = list(_cases(ds))
-    fig = Figure(figsize=(7, 3.1 * len(cases)), layout="constrained")
+    fig = Figure(figsize=(7.2, 2.9 * len(cases) + 0.4), layout="constrained")
     axes = np.atleast_2d(fig.subplots(len(cases), 2))
     y, z = ds["gy"].values, ds["gz"].values
     ext = (y[0] * 1.05e3, y[-1] * 1.05e3, z[0] * 1.05e3, z[-1] * 1.05e3)
-    for (label, sub), (a1, a2) in zip(cases, axes):
-        im = a1.imshow(sub["cg_speed"].values, origin="lower", extent=ext, cmap="viridis")
-        fig.colorbar(im, ax=a1, label="|v| [m s-1]")
-        step = max(1, len(y) // 12)
-        Y, Z = np.meshgrid(y * 1e3, z * 1e3)
+    # the scale ends at the 99th percentile of the cells: a corner cell crossed by a few beads
+    # would otherwise set it for all
+    speed = Normalize(0.0, float(np.nanpercentile(ds["cg_speed"].values, 99)))
+    spin = Normalize(0.0, float(np.nanpercentile(ds["cg_spin"].values, 99)))
+    step = max(1, len(y) // 12)
+    Y, Z = np.meshgrid(y * 1e3, z * 1e3)
+    for (lab, sub), (a1, a2) in zip(cases, axes):
+        im1 = a1.imshow(sub["cg_speed"].values, origin="lower", extent=ext, cmap="viridis",
+                        norm=speed)
         a1.quiver(Y[::step, ::step], Z[::step, ::step], sub["cg_vy"].values[::step, ::step],
                   sub["cg_vz"].values[::step, ::step], color="w", scale=None)
-        im = a2.imshow(sub["cg_spin"].values, origin="lower", extent=ext, cmap="magma")
-        fig.colorbar(im, ax=a2, label="|w| [rad s-1]")
-        a1.set(title=f"translational, {label}", xlabel="y [mm]", ylabel="z [mm]")
-        a2.set(title="rotational", xlabel="y [mm]")
-        a1.title.set_fontsize("small")
-    fig.savefig(out, dpi=110)
+        im2 = a2.imshow(sub["cg_spin"].values, origin="lower", extent=ext, cmap="magma",
+                        norm=spin)
+        a1.set(title=f"translational, {lab}", xlabel=label("y", "mm"), ylabel=label("z", "mm"))
+        a2.set(title=f"rotational, {lab}", xlabel=label("y", "mm"))
+        for a in (a1, a2):
+            a.grid(False)
+    fig.colorbar(im1, ax=axes[:, 0].tolist(), label=label("|v|", "m s-1"), shrink=0.6,
+                 location="bottom", extend="max")
+    fig.colorbar(im2, ax=axes[:, 1].tolist(), label=label(f"|{SYMBOL['omega']}|", "rad s-1"),
+                 shrink=0.6, location="bottom", extend="max")
+    fig.suptitle("Coarse-grained bead speed on the axial slab\n(one colour scale per quantity, "
+                 "ending at its 99th percentile over all cells)")
+    fig.savefig(out)
 
 
 def friction(t, out):
     """Seed Fig. 5: dry power vs speed per friction with the reference; residuals vs friction
-    (from the stage 1 residual table)."""
+    (from the stage 1 residual table), with the chosen friction and its 95 % interval."""
     s = friction_ssr(t)
-    fig = Figure(figsize=(11, 4.5), layout="constrained")
+    fig = Figure(figsize=(10.5, 4.2), layout="constrained")
     a, b = fig.subplots(1, 2)
-    for mu, sub in t.groupby("friction"):
-        a.errorbar(sub["rpm"], sub["net_power"], yerr=sub["net_power_ci"], fmt="o-", capsize=2,
-                   label=f"simulation mu = {mu:g}")
+    groups = list(t.groupby("friction"))
+    n = t.groupby("friction")["rpm"].nunique().max()
+    shift = dodge_step(t["rpm"], len(groups) + 1) if n < 3 else 0.0
+    for k, (mu, sub) in enumerate(groups):
+        points(a, sub["rpm"], sub["net_power"], sub["net_power_ci"], dodge=(k - len(groups)) * shift,
+               label=f"simulation {MU} = {mu:g}")
     ref = t.drop_duplicates("rpm").sort_values("rpm")
-    a.plot(ref["rpm"], ref["reference"], "ks--", label="reference (dry)")
-    a.set(xlabel="agitator speed [min-1]", ylabel="net power [W]", title="a. dry power vs speed")
-    a.legend(fontsize="small")
-    b.plot(s["friction"], s["ssr"], "o-")
-    b.set(xlabel="friction coefficient mu", ylabel="sum of squared residuals [W2]",
-          title="b. residuals (minimum = calibrated mu)")
-    fig.suptitle(SYNTHETIC_NOTE, fontsize="small")
-    fig.savefig(out, dpi=120)
+    points(a, ref["rpm"], ref["reference"], ref.get("reference_ci"), color="k", marker="s",
+           mfc="none", ls="--", label="reference (dry)")
+    few_points_note(a, n, "speed", dodged=bool(shift))
+    a.set(xlabel=RPM, ylabel=POWER, title="a. dry power vs speed")
+    a.legend()
+    b.plot(s["friction"], s["ssr"], "o-", color="C0",
+           label="sum of squared residuals" if len(s) >= 3 else None)
+    best = float(s["friction"].iloc[int(np.argmin(s["ssr"]))])
+    b.axvline(best, color="C3", lw=1, label=f"calibrated {MU} = {best:g}")
+    if len(s) > 1:
+        iv = friction_interval(t)
+        b.axvspan(iv["lo"], iv["hi"], color="C3", alpha=0.12,
+                  label=f"95 % interval [{iv['lo']:.3g}, {iv['hi']:.3g}]")
+    b.set(xlabel=f"friction coefficient {MU}", ylabel=label("sum of squared residuals", "W2"),
+          title=f"b. residuals (minimum = calibrated {MU})")
+    b.legend()
+    fig.suptitle(SYNTHETIC_NOTE)
+    fig.savefig(out)
 
 
 def viscosity(t, out):
-    """Seed Fig. 6: power at the calibration speed vs eta_sim; reference per fluid vs eta_exp."""
-    fig = Figure(figsize=(6.5, 4.5), layout="constrained")
+    """Seed Fig. 6: power at the calibration speed vs eta_sim; reference per fluid at its
+    viscosity, with the eta_sim interval consistent with it."""
+    from ..analysis.stirred_mill import viscosity_interval
+
+    fig = Figure(figsize=(6.5, 4.4), layout="constrained")
     ax = fig.subplots()
     sim = t.drop_duplicates("eta_sim").sort_values("eta_sim")
-    ax.errorbar(sim["eta_sim"], sim["net_power"], yerr=sim["net_power_ci"], fmt="o-", capsize=3,
-                label="simulation vs eta_sim")
-    for fluid, sub in t.groupby("fluid"):
-        ax.axhline(sub["reference"].iloc[0], ls="--", lw=0.8, color="grey")
-        ax.plot(sub["eta_exp"].iloc[0], sub["reference"].iloc[0], "s", ms=8,
-                label=f"reference {fluid} (at eta_exp)")
-    ax.set(xscale="log", xlabel="viscosity [Pa s]", ylabel="net power [W]",
-           title=f"Viscosity calibration at {t['rpm'].iloc[0]:g} rpm")
-    ax.legend(fontsize="small")
-    fig.savefig(out, dpi=120)
+    n = points(ax, sim["eta_sim"], sim["net_power"], sim["net_power_ci"], color="C0",
+               label=f"simulation vs {ETA_SIM}")
+    few_points_note(ax, n, "viscosity")
+    for k, (fluid, sub) in enumerate(t.groupby("fluid")):
+        c = f"C{k + 1}"
+        r = sub["reference"].iloc[0]
+        r_ci = sub["reference_ci"].iloc[0] if "reference_ci" in sub else 0.0
+        ax.errorbar(sub["eta_exp"].iloc[0], r, yerr=r_ci or None, fmt="s", ms=7, mfc="none",
+                    color=c, label=f"reference {fluid} at {ETA_EXP}")
+        iv = viscosity_interval(sub)
+        ax.plot([iv["lo"], iv["hi"]], [r, r], "-", color=c, lw=4, alpha=0.45,
+                label=f"{fluid}: {ETA_SIM} 95 % interval [{iv['lo']:.2g}, {iv['hi']:.2g}] Pa s")
+    ax.set(xscale="log", xlabel=label(f"viscosity {ETA}", "Pa s"), ylabel=POWER,
+           title=f"Viscosity calibration at {t['rpm'].iloc[0]:g} min$^{{-1}}$")
+    ax.legend()
+    fig.suptitle(SYNTHETIC_NOTE, fontsize=8)
+    fig.savefig(out)
 
 
 def prediction(t, out):
     """Seed Fig. 7: calibrated power curves vs reference, per fluid."""
-    fig = Figure(figsize=(6.5, 4.5), layout="constrained")
+    fig = Figure(figsize=(6.5, 4.4), layout="constrained")
     ax = fig.subplots()
+    n = t.groupby("fluid")["rpm"].nunique().max()
+    shift = dodge_step(t["rpm"], 2) if n < 3 else 0.0
     for k, (fluid, sub) in enumerate(t.groupby("fluid", sort=False)):
         c = f"C{k}"
-        ax.errorbar(sub["rpm"], sub["net_power"], yerr=sub["net_power_ci"], fmt="o-", color=c,
-                    capsize=2, label=f"simulation {fluid} (eta_sim {sub['eta_sim'].iloc[0]:g})")
-        ax.plot(sub["rpm"], sub["reference"], "s--", color=c, mfc="none", label=f"reference {fluid}")
-    ax.set(xlabel="agitator speed [min-1]", ylabel="net power [W]",
-           title="Calibrated model vs reference power")
-    ax.legend(fontsize="x-small")
-    fig.savefig(out, dpi=120)
+        points(ax, sub["rpm"], sub["net_power"], sub["net_power_ci"], color=c, dodge=-shift,
+               label=f"simulation {fluid} ({ETA_SIM} {sub['eta_sim'].iloc[0]:g} Pa s)")
+        points(ax, sub["rpm"], sub["reference"], sub.get("reference_ci"), color=c, marker="s",
+               mfc="none", ls="--", dodge=shift, label=f"reference {fluid}")
+    few_points_note(ax, n, "speed", dodged=bool(shift))
+    ax.set(xlabel=RPM, ylabel=POWER, title="Calibrated model vs reference power")
+    ax.legend(ncols=2)
+    fig.suptitle(SYNTHETIC_NOTE, fontsize=8)
+    fig.savefig(out)
