@@ -24,6 +24,7 @@ $(STAMP): pyproject.toml $(CONSTRAINTS)
 run: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES)
 	$(BIN)/snakemake --report results/report.html
+	$(BIN)/millsim verdicts results/report/summary.json
 
 # Test files in parallel, one worker per core (compiling each physics variant dominates; the
 # workers share the on-disk kernel cache).

@@ -1,6 +1,8 @@
 # millsim pipeline: config -> cases (`millsim run`) -> aggregates -> plots -> report.
 # `snakemake --cores 2` runs the study in config/config.yaml; see README.md.
 
+import os
+
 from snakemake.utils import min_version
 
 min_version("9.19")
@@ -9,7 +11,16 @@ min_version("9.19")
 configfile: "config/config.yaml"
 
 
-report: "workflow/report/workflow.rst"
+# The landing page includes the summary of `millsim report` (workflow/rules/report.smk); before
+# the study has run there is none, and the report says so instead.
+REPORT_PAGE = (
+    "workflow/report/workflow.rst"
+    if os.path.exists("results/report/landing.rst")
+    else "workflow/report/not_run.rst"
+)
+
+
+report: REPORT_PAGE
 
 
 include: "workflow/rules/common.smk"
@@ -28,6 +39,9 @@ if "bed_impact" in config:
 if "single_particle" in config:
 
     include: "workflow/rules/single_particle.smk"
+
+
+include: "workflow/rules/report.smk"
 
 
 # Error against run time (issue 6): `snakemake --cores 2 accuracy`; not part of `rule all`

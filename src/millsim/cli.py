@@ -1,6 +1,7 @@
 """The ``millsim`` command line, the one front door of every pipeline stage: list scenes, run one
 case to a netCDF file, describe a case file, stack cases into an aggregate, analyse a study
-(``millsim analyse STUDY STAGE``) and draw a figure of the plot registry.
+(``millsim analyse STUDY STAGE``), draw a figure of the plot registry, and write the report's
+landing page with the verification verdicts (``millsim report``, ``millsim verdicts``).
 
 Every pipeline rule calls this, so any stage can be re-run by hand with the same command.
 Bad input ends with exit code 2, one line naming the key and its allowed range, and no output file:
@@ -301,6 +302,34 @@ def cmd_tavares_summary(args):
     print("\n".join(tv.summary(ds)))
 
 
+def cmd_report(args):
+    import shlex
+
+    from .analysis import report
+
+    outputs = {"--json": args.json, "--rst": args.rst}
+    inputs = [p for p in (args.ballmill, args.forcechain, args.bed, args.tavares, args.stirred,
+                          *(args.calibration or ())) if p]
+    for key, out in outputs.items():
+        _check_out(out, inputs, key=key)
+    summary = report.summarise(args.ballmill, args.forcechain, args.bed, args.tavares,
+                               args.stirred, args.calibration,
+                               command=shlex.join(["millsim", *sys.argv[1:]]))
+    _write_json(args.json, summary)
+    from .io import atomic_target
+
+    with atomic_target(args.rst) as tmp:
+        tmp.write_text(report.landing_rst(summary))
+    print("\n".join(report.verdict_lines(summary)))
+
+
+def cmd_verdicts(args):
+    from .analysis import report
+
+    summary = _read_json(args.summary, "verdicts")
+    print("\n".join(report.verdict_lines(summary)))
+
+
 def _analyse_parser(sub):
     """``millsim analyse STUDY STAGE``: the analyses over case files (millsim.analysis)."""
     analyse = sub.add_parser("analyse", help="analyse a study's case files (accuracy, stirred-mill "
@@ -424,6 +453,26 @@ def build_parser():
     p.set_defaults(func=cmd_plot)
 
     _analyse_parser(sub)
+
+    p = sub.add_parser("report", help="the report's landing page: headline numbers, verification "
+                       "verdicts, calibrated values (JSON summary + reStructuredText)")
+    p.add_argument("--ballmill", help="ball-mill aggregate (.nc)")
+    p.add_argument("--forcechain", help="ball-mill force-chain aggregate (.nc)")
+    p.add_argument("--bed", help="bed-impact aggregate (.nc)")
+    p.add_argument("--tavares", help="Tavares verification aggregate (.nc)")
+    p.add_argument("--stirred", help="stirred-mill power aggregate (.nc)")
+    p.add_argument("--calibration", nargs=4,
+                   metavar=("FRICTION_JSON", "VISCOSITY_JSON", "PREDICTION_CSV", "REFERENCE_CSV"),
+                   help="stirred-mill calibration: the choices of stages 1 and 2, the table of "
+                        "stage 3 and the reference table")
+    p.add_argument("--json", required=True, help="summary (JSON; `millsim verdicts` reads it)")
+    p.add_argument("--rst", required=True, help="landing page (reStructuredText)")
+    p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("verdicts", help="print the verification verdicts of a summary, failed "
+                       "first")
+    p.add_argument("summary", help="summary JSON of `millsim report`")
+    p.set_defaults(func=cmd_verdicts)
     return parser
 
 
@@ -444,7 +493,7 @@ def main(argv=None):
         print(f"millsim: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
         return 128 + signum
     except KeyError as exc:
-        if args.command != "analyse":
+        if args.command not in ("analyse", "report", "verdicts"):
             raise
         # a column or variable the analysis needs is missing from its input
         print(f"millsim: error: missing {exc}", file=sys.stderr)

@@ -158,6 +158,24 @@ if ACCURACY_FIGURE not in PLOTS:
     raise ValueError(f"`millsim plot --list` has no {ACCURACY_FIGURE!r}")
 
 
+def accuracy_caption(wildcards):
+    """Params function of plot_accuracy: what this figure's study is (from its config block),
+    then the family's caption; one caption per figure."""
+    block = ACCURACY[wildcards.subject]
+    fixed = ", ".join(f"{k} = {v}" for k, v in (block.get("parameters") or {}).items())
+    series = "; ".join(
+        f"{name}: {', '.join(f'{k} = {v}' for k, v in (spec.get('set') or {}).items()) or 'scene defaults'}"
+        f", {' '.join(f'{k} in {v}' for k, v in spec['ladder'].items())}"
+        for name, spec in block["series"].items()
+    )
+    return (
+        f"Accuracy study {wildcards.subject} (scene {ACCURACY_SCENES[wildcards.subject]}; "
+        f"config accuracy.{wildcards.subject}): {fixed or 'scene defaults'}; seeds "
+        f"{block['seed']}; series {series}. "
+        + PLOTS[ACCURACY_FIGURE].caption
+    )
+
+
 rule plot_accuracy:
     input:
         "results/aggregate/accuracy.nc",
@@ -171,7 +189,7 @@ rule plot_accuracy:
     log:
         "results/logs/plot_accuracy/{subject}.log",
     params:
-        caption=PLOTS[ACCURACY_FIGURE].caption,
+        caption=accuracy_caption,
     wildcard_constraints:
         subject="|".join(ACCURACY_NAMES) or "none",
     shell:

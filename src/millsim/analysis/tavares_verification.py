@@ -61,6 +61,12 @@ def pass_rule(inside, threshold=PASS_FRACTION):
     return frac, bool(frac >= threshold)
 
 
+def _rule(inside):
+    """A pass-rule result as stored: fraction inside, points, passed."""
+    frac, ok = pass_rule(inside)
+    return {"inside": frac, "points": int(np.isfinite(np.asarray(inside, float)).sum()), "pass": ok}
+
+
 # ---- aggregate ------------------------------------------------------------------------------
 def aggregate(paths):
     """One dataset of the verification study from single_particle case files.
@@ -137,8 +143,7 @@ def _probability(cases, out, coords, attrs):
     for m, mode in enumerate(modes):
         for j, mat in enumerate(mats):
             frac, ok = pass_rule(arr["inside"][m, j])
-            rule[f"{mode}/{mat}"] = {"inside": frac, "points": int(np.isfinite(arr["inside"][m, j]).sum()),
-                                     "pass": ok}
+            rule[f"{mode}/{mat}"] = _rule(arr["inside"][m, j])
     attrs["pass_rule_probability"] = json.dumps(rule)
 
 
@@ -172,9 +177,9 @@ def _repeated(cases, out, coords, attrs):
         out[f"rep_{k}"] = (("gamma", "impact"), v, {"units": "1", "long_name": meta[k][0]})
     out["rep_inside"] = (("gamma", "impact"), inside, {"units": "1", "long_name": "analytic inside 95% interval"})
     out["rep_n"] = (("gamma",), ns, {"units": "1", "long_name": "particles"})
-    rule = {f"gamma={g:g}": dict(zip(("inside", "pass"), pass_rule(inside[i])))
-            for i, g in enumerate(gammas)}
-    rule["all"] = dict(zip(("inside", "pass"), pass_rule(inside)))
+    rule = {f"gamma={g:g}": _rule(inside[i]) for i, g in enumerate(gammas)}
+    if len(gammas) > 1:
+        rule["all"] = _rule(inside)
     attrs["pass_rule_repeated"] = json.dumps(rule)
 
 
@@ -195,6 +200,7 @@ def _fragmentation(cases, out, coords, attrs):
             "t10_model_all": ("%", "eq 7, E50b = median of all particles", "product_t10_model_all"),
             "t10_primary": ("%", "eq 9, primary breakage at the fracture energy", "t10_primary_model"),
             "specific_energy": ("J kg-1", "input (stressing) specific energy", "specific_energy"),
+            "absorbed_share": ("1", "absorbed share of the input energy (eq 4)", "absorbed_share"),
             "broken": ("1", "particles broken", "n_broken")}
     arr = {k: np.full(shape, np.nan) for k in meta}
     psd = np.full(shape + (len(sieves),), np.nan)
@@ -205,12 +211,17 @@ def _fragmentation(cases, out, coords, attrs):
             arr[k][ix] = float(ds[var])
         psd[ix] = ds["product_passing"].values
         psd_model[ix] = ds["product_passing_model"].values
+        attrs["frag_materials_file"] = p["materials_file"]  # the model curves of the figures
     coords.update(frag_case=("frag_case", [_frag_label(k) for k in keys]),
                   frag_ratio=("frag_ratio", np.array(fr), ENERGY_RATIO),
                   sieve=("sieve", sieves, {"units": "1", "long_name": "sieve size / initial diameter"}))
     for k, v in arr.items():
         out[k if k.startswith("t10") else f"t10_{k}"] = (
             ("frag_case", "frag_ratio"), v, {"units": meta[k][0], "long_name": meta[k][1]})
+    out["frag_material"] = (("frag_case",), [k[0] for k in keys],
+                            {"units": "1", "long_name": "material of the materials file"})
+    out["frag_diameter"] = (("frag_case",), [k[2] for k in keys],
+                            {"units": "m", "long_name": "initial particle diameter"})
     out["psd_sim"] = (("frag_case", "frag_ratio", "sieve"), psd,
                       {"units": "%", "long_name": "cumulative % passing, broken particles' product"})
     out["psd_model"] = (("frag_case", "frag_ratio", "sieve"), psd_model,
@@ -218,8 +229,7 @@ def _fragmentation(cases, out, coords, attrs):
     inside = _inside(arr["t10_model"], arr["t10_lo"], arr["t10_hi"], arr["t10"])
     out["t10_inside"] = (("frag_case", "frag_ratio"), inside,
                          {"units": "1", "long_name": "eq 7 inside the 95% bootstrap interval"})
-    rule = {_frag_label(k): dict(zip(("inside", "pass"), pass_rule(inside[i])))
-            for i, k in enumerate(keys)}
+    rule = {_frag_label(k): _rule(inside[i]) for i, k in enumerate(keys)}
     attrs["pass_rule_t10"] = json.dumps(rule)
 
 

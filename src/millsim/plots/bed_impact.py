@@ -1,20 +1,26 @@
 """Bed-impact figures (seed 002 Figs 20-23) from the aggregate of ``millsim aggregate bed_impact``
 (``results/aggregate/bed_breakage.nc``, with the seed statistics of millsim.analysis.bed_impact):
 
-- ``bed_broken_mass`` (seed Fig. 22): broken mass (% passing 4.75 mm) per bed configuration and
-  material, at the reference energy (3.05 J, or the energy closest to it);
+- ``bed_broken_mass`` (seed Fig. 22): broken mass (% passing 4.75 mm) against impact energy per
+  bed configuration and material; and, where several configurations were run at the reference
+  energy (3.05 J, or the energy closest to it), one bar per configuration there;
 - ``bed_capture_radius`` (seed Fig. 20): capture radius against impact energy;
-- ``bed_size_energy`` (seed Fig. 21): product size distributions per impact energy;
-- ``bed_size_configuration`` (seed Fig. 23): product size distributions per bed configuration.
+- ``bed_size_distributions`` (seed Figs 21 and 23): product size distributions, one panel per bed
+  run at several energies (a line per energy) and one per material run in several configurations
+  at the reference energy (a line per configuration).
 
 The seed's measured values exist only as figures; nothing here draws or stores them.
 """
 
+import matplotlib
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from .style import few_points_note, label, points
+
 REFERENCE_ENERGY = 3.05  # J, seed Figs 22-23
+ENERGY = label("impact energy", "J")
 
 
 def _configs(ds):
@@ -25,10 +31,18 @@ def _configs(ds):
             sel = ds["broken_fraction_mean"].sel(rings=rings, layers=layers)
             if bool(sel.notnull().any()):
                 n = 1 + 3 * int(rings) * (int(rings) + 1)
-                label = (f"{n} ({int(rings)} rings)" if int(layers) == 1
-                         else f"{int(layers)} layers ({int(rings)} rings)")
-                out.append((rings, layers, label))
+                lab = (f"{n} particles ({int(rings)} ring{'s' if int(rings) != 1 else ''})"
+                       if int(layers) == 1 else f"{int(layers)} layers ({int(rings)} rings)")
+                out.append((rings, layers, lab))
     return sorted(out, key=lambda c: (c[1], c[0]))
+
+
+def _beds(ds):
+    """(material, rings, layers, label, sub-dataset along impact_energy and seed) of every bed."""
+    for mat in ds["material"].values:
+        for rings, layers, lab in _configs(ds.sel(material=mat)):
+            yield (mat, rings, layers, f"{str(mat).replace('_', ' ')}, {lab}",
+                   ds.sel(material=mat, rings=rings, layers=layers))
 
 
 def _reference_energy(ds):
@@ -36,106 +50,126 @@ def _reference_energy(ds):
     return e[int(np.argmin(np.abs(e - REFERENCE_ENERGY)))]
 
 
-def _save(fig, out):
-    fig.tight_layout()
-    fig.savefig(out, dpi=120)
+def _seeds_note(ds):
+    n = int(ds["replicates"].max()) if "replicates" in ds else ds.sizes.get("seed", 1)
+    return "one seed per point: no spread shown" if n < 2 else f"mean of up to {n} seeds, +- sd"
 
 
 def broken_mass(ds: xr.Dataset, out: str) -> None:
-    """Seed Fig. 22: broken mass per bed configuration and material (mean +- sd over seeds)."""
-    e = _reference_energy(ds)
-    sub = ds.sel(impact_energy=e)
-    configs = _configs(sub)
-    mats = list(sub["material"].values)
-    fig = Figure(figsize=(max(6.0, 1.1 * len(configs) + 2), 4.2))
-    ax = fig.add_subplot()
-    width = 0.8 / max(len(mats), 1)
-    x = np.arange(len(configs))
-    for k, mat in enumerate(mats):
-        mean = [float(sub["broken_fraction_mean"].sel(material=mat, rings=r, layers=l)) * 100
-                for r, l, _ in configs]
-        std = [float(sub["broken_fraction_std"].sel(material=mat, rings=r, layers=l)) * 100
-               for r, l, _ in configs]
-        ax.bar(x + (k - (len(mats) - 1) / 2) * width, mean, width, yerr=np.nan_to_num(std),
-               capsize=3, label=str(mat).replace("_", " "))
-    ax.set_xticks(x, [c[2] for c in configs], rotation=20, ha="right")
-    ax.set_xlabel("bed configuration (particles per layer)")
-    ax.set_ylabel("broken mass, passing 4.75 mm [%]")
-    ax.set_title(f"Single impact at {e:g} J (88 mm ball); mean +- sd over seeds", fontsize=9)
-    ax.legend()
-    _save(fig, out)
+    """Seed Fig. 22: broken mass against impact energy per bed (mean +- sd over seeds, single
+    seeds as dots); bars per configuration at the reference energy where several were run."""
+    e_ref = _reference_energy(ds)
+    at_ref = ds.sel(impact_energy=e_ref)
+    configs = _configs(at_ref)
+    bars = len(configs) > 1
+    fig = Figure(figsize=(11.0 if bars else 6.2, 4.3), layout="constrained")
+    axes = fig.subplots(1, 2 if bars else 1, squeeze=False)[0]
+    ax = axes[0]
+    e = ds["impact_energy"].values
+    n = 0
+    for k, (_, _, _, lab, sub) in enumerate(_beds(ds)):
+        c = f"C{k % 10}"
+        mean, std = 100 * sub["broken_fraction_mean"].values, 100 * sub["broken_fraction_std"].values
+        n = max(n, points(ax, e, mean, np.nan_to_num(std), color=c, label=lab))
+        per_seed = 100 * sub["broken_fraction"].values  # (energy, seed)
+        if per_seed.shape[-1] > 1:
+            for s in range(per_seed.shape[-1]):
+                ax.plot(e, per_seed[:, s], ".", color=c, alpha=0.4)
+    few_points_note(ax, n, "energy")
+    ax.axvline(e_ref, color="0.5", ls=":", lw=1, label=f"{e_ref:g} J (seed Fig. 22)")
+    ax.set(xscale="log", xlabel=ENERGY, ylabel="broken mass, passing 4.75 mm [%]",
+           ylim=(0, 105), title=f"Broken mass against impact energy ({_seeds_note(ds)})")
+    ax.legend(loc="upper left")
+    if bars:
+        b = axes[1]
+        mats = list(at_ref["material"].values)
+        width = 0.8 / len(mats)
+        x = np.arange(len(configs))
+        for k, mat in enumerate(mats):
+            sel = [at_ref.sel(material=mat, rings=r, layers=l) for r, l, _ in configs]
+            b.bar(x + (k - (len(mats) - 1) / 2) * width,
+                  [100 * float(s["broken_fraction_mean"]) for s in sel], width,
+                  yerr=[100 * np.nan_to_num(float(s["broken_fraction_std"])) for s in sel],
+                  label=str(mat).replace("_", " "))
+        b.set_xticks(x, [c[2] for c in configs], rotation=20, ha="right")
+        b.set(xlabel="bed configuration", ylabel="broken mass, passing 4.75 mm [%]",
+              ylim=(0, 105), title=f"Per bed configuration at {e_ref:g} J (seed Fig. 22)")
+        b.grid(False, axis="x")
+        b.legend()
+    fig.savefig(out)
 
 
 def capture_radius(ds: xr.Dataset, out: str) -> None:
-    """Seed Fig. 20: capture radius against impact energy (each seed, and the mean), for the
-    beds run at more than one energy (or every bed, when none was)."""
-    fig = Figure(figsize=(6.0, 4.2))
-    ax = fig.add_subplot()
+    """Seed Fig. 20: capture radius against impact energy (mean over seeds, single seeds as
+    dots), with the radii of the bed's rings as reference lines."""
+    fig = Figure(figsize=(6.2, 4.3), layout="constrained")
+    ax = fig.subplots()
     e = ds["impact_energy"].values
-    swept = bool((ds["capture_radius_mean"].notnull().sum("impact_energy") > 1).any())
-    for mat in ds["material"].values:
-        for rings, layers, label in _configs(ds.sel(material=mat)):
-            sub = ds.sel(material=mat, rings=rings, layers=layers)
-            mean = sub["capture_radius_mean"].values * 1e3
-            ok = np.isfinite(mean)
-            if not ok.any() or (swept and ok.sum() < 2):
-                continue
-            line = ax.plot(e[ok], mean[ok], "o-", label=f"{str(mat).replace('_', ' ')}, {label}")[0]
-            per_seed = sub["capture_radius"].values * 1e3  # (energy, seed)
+    n, rings = 0, 0
+    for k, (_, r, _, lab, sub) in enumerate(_beds(ds)):
+        c = f"C{k % 10}"
+        n = max(n, points(ax, e, 1e3 * sub["capture_radius_mean"].values, color=c, label=lab))
+        per_seed = 1e3 * sub["capture_radius"].values
+        if per_seed.shape[-1] > 1:
             for s in range(per_seed.shape[-1]):
-                ax.plot(e, per_seed[:, s], ".", color=line.get_color(), alpha=0.5)
-    ax.set_xlabel("impact energy [J]")
-    ax.set_ylabel("capture radius [mm]")
-    ax.set_title("Capture radius (largest distance of a broken bed particle from the ball axis)",
-                 fontsize=9)
-    ax.legend(fontsize=8)
-    _save(fig, out)
+                ax.plot(e, per_seed[:, s], ".", color=c, alpha=0.4)
+        rings = max(rings, int(r))
+    pitch = float(ds.attrs.get("param_spacing", np.nan)) \
+        * float(ds.attrs.get("param_particle_diameter", np.nan)) * 1e3
+    if np.isfinite(pitch):
+        for k in range(1, rings + 1):
+            ax.axhline(k * pitch, color="0.6", ls=":", lw=0.8)
+            ax.text(e.min(), k * pitch, f" ring {k} ({k * pitch:.2g} mm)", va="bottom",
+                    fontsize=7, color="0.4")
+    few_points_note(ax, n, "energy")
+    ax.set(xscale="log", xlabel=ENERGY, ylabel=label("capture radius", "mm"), ylim=(-0.5, None),
+           title="Capture radius: largest distance of a broken bed particle from the ball axis\n"
+                 f"({_seeds_note(ds)}; 0: only the central particle broke)")
+    ax.legend(loc="upper left")
+    fig.savefig(out)
 
 
-def _psd_panels(ds, groups, title, out):
-    """One panel per (material, fixed selection); a line per entry of ``groups``."""
-    panels = [p for p in groups if p[1]]
-    fig = Figure(figsize=(5.0 * max(1, len(panels)), 4.2))
+def size_distributions(ds: xr.Dataset, out: str) -> None:
+    """Seed Figs. 21 and 23: product size distributions (mean over seeds), per impact energy for
+    every bed run at several energies, and per bed configuration at the reference energy for
+    every material run in several configurations."""
+    panels = []
+    energies = ds["impact_energy"].values
+    cmap, norm = matplotlib.colormaps["plasma"], matplotlib.colors.LogNorm(energies.min(),
+                                                                            energies.max() * 1.0001)
+    for mat, rings, layers, lab, sub in _beds(ds):
+        lines = [(f"{e:g} J", cmap(0.85 * norm(e)), sub["passing_fraction_mean"].sel(impact_energy=e))
+                 for e in energies
+                 if bool(sub["passing_fraction_mean"].sel(impact_energy=e).notnull().all())]
+        if len(lines) > 1:
+            panels.append((f"{lab}: per impact energy (seed Fig. 21)", lines))
+    e_ref = _reference_energy(ds)
+    at_ref = ds.sel(impact_energy=e_ref)
+    for mat in at_ref["material"].values:
+        configs = _configs(at_ref.sel(material=mat))
+        if len(configs) > 1:
+            panels.append((f"{str(mat).replace('_', ' ')}: per bed configuration at {e_ref:g} J "
+                           "(seed Fig. 23)",
+                           [(lab, f"C{k % 10}", at_ref["passing_fraction_mean"].sel(
+                               material=mat, rings=r, layers=l))
+                            for k, (r, l, lab) in enumerate(configs)]))
+    if not panels:  # one bed at one energy
+        panels = [(lab, [(f"{e_ref:g} J", "C0", sub["passing_fraction_mean"].sel(
+            impact_energy=e_ref))]) for *_, lab, sub in _beds(ds)]
+    cols = min(len(panels), 2)
+    rows = -(-len(panels) // cols)
+    fig = Figure(figsize=(5.6 * cols, 4.2 * rows), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False).ravel()
     sieve = ds["sieve"].values * 1e3
-    for k, (name, lines) in enumerate(panels):
-        ax = fig.add_subplot(1, max(1, len(panels)), k + 1)
-        for label, var in lines:
+    for ax, (title, lines) in zip(axes, panels):
+        for lab, colour, var in lines:
             y = var.values * 100
-            ax.loglog(sieve, np.where(y > 0, y, np.nan), "o-", ms=3, label=label)
-        ax.set_xlabel("size [mm]")
-        ax.set_ylabel("cumulative passing [%]")
-        ax.set_title(name, fontsize=9)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
-    fig.suptitle(title, fontsize=10)
-    _save(fig, out)
-
-
-def size_energy(ds: xr.Dataset, out: str) -> None:
-    """Seed Fig. 21: product size distributions (mean over seeds) per impact energy."""
-    groups = []
-    for mat in ds["material"].values:
-        for rings, layers, label in _configs(ds.sel(material=mat)):
-            lines = []
-            for e in ds["impact_energy"].values:
-                var = ds["passing_fraction_mean"].sel(material=mat, rings=rings, layers=layers,
-                                                      impact_energy=e)
-                if bool(var.notnull().all()):
-                    lines.append((f"{e:g} J", var))
-            groups.append((f"{str(mat).replace('_', ' ')}, {label}", lines))
-    _psd_panels(ds, groups, "Product size distributions against impact energy (incl. fines)", out)
-
-
-def size_configuration(ds: xr.Dataset, out: str) -> None:
-    """Seed Fig. 23: product size distributions (mean over seeds) per bed configuration."""
-    e = _reference_energy(ds)
-    sub = ds.sel(impact_energy=e)
-    groups = []
-    for mat in sub["material"].values:
-        lines = []
-        for rings, layers, label in _configs(sub.sel(material=mat)):
-            var = sub["passing_fraction_mean"].sel(material=mat, rings=rings, layers=layers)
-            if bool(var.notnull().all()):
-                lines.append((label, var))
-        groups.append((str(mat).replace("_", " "), lines))
-    _psd_panels(sub, groups, f"Product size distributions per bed configuration at {e:g} J", out)
+            ax.loglog(sieve, np.where(y > 0, y, np.nan), "o-", ms=3, color=colour, label=lab)
+        ax.set(xlabel=label("size", "mm"), ylabel="cumulative passing [%]", title=title)
+        ax.grid(True, which="both", alpha=0.25)
+        ax.legend(loc="lower right")
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
+    fig.suptitle("Product size distributions, mean over seeds (dummy spheres and unresolved "
+                 "fines spread below their size by eq 11)")
+    fig.savefig(out)

@@ -11,7 +11,12 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..models.breakage import tavares
-from ..models.breakage.tavares_predictions import breakage_probability
+from ..models.breakage.tavares_predictions import (breakage_probability, product_passing_model,
+                                                   t10_model)
+from .style import SYMBOL, dense, few_points_note, label
+
+ENERGY = label(f"input specific energy {SYMBOL['Ek/m']}", "J kg-1")
+T10 = label(SYMBOL["t10"], "%")
 
 
 def _figure(figsize):
@@ -21,7 +26,7 @@ def _figure(figsize):
 def probability(ds, out):
     """Seed 002 Fig. 8: breakage probability vs input specific energy, 3 materials, single impact
     and drop weight; analytic eq 1 curves and 95 % intervals."""
-    fig = _figure((7.5, 5))
+    fig = _figure((7.0, 4.6))
     ax = fig.subplots()
     colours = matplotlib.colormaps["tab10"]
     markers = {"single": "o", "drop_weight": "s"}
@@ -32,8 +37,8 @@ def probability(ds, out):
         d = float(ds.attrs.get("prob_diameter_m", 5.5e-3))
         E = ds["prob_specific_energy"].isel(prob_material=j)
         emax = float(np.nanmax(E)) * 1.2
-        x = np.geomspace(emax / 100, emax, 300)
-        ax.plot(x, breakage_probability(mat, d, x, share), "-", color=colours(j), lw=1.2,
+        x = dense(emax / 100, emax, log=True)
+        ax.plot(x, breakage_probability(mat, d, x, share), "-", color=colours(j),
                 label=f"{mat_name}: model (eq 1)")
         for m, mode in enumerate(ds["prob_mode"].values):
             sub = {k: ds[f"prob_{k}"].isel(prob_mode=m, prob_material=j).values
@@ -43,17 +48,18 @@ def probability(ds, out):
                 continue
             ax.errorbar(sub["specific_energy"][ok], sub["fraction"][ok],
                         yerr=[sub["fraction"][ok] - sub["ci_lo"][ok], sub["ci_hi"][ok] - sub["fraction"][ok]],
-                        fmt=markers.get(str(mode), "^"), color=colours(j), mfc="none" if mode == "drop_weight" else None,
-                        capsize=2, ls="none", label=f"{mat_name}: {mode} (sim., 95% CI)")
-    ax.set(xscale="log", xlabel="input specific energy Ek/m [J/kg]", ylabel="fraction broken [1]",
-           ylim=(-0.02, 1.02), title="Breakage probability: simulation vs model (seed 002 Fig. 8)")
-    ax.legend(fontsize="x-small")
-    fig.savefig(out, dpi=120)
+                        fmt=markers.get(str(mode), "^"), color=colours(j),
+                        mfc="white" if mode == "drop_weight" else None, ls="none",
+                        label=f"{mat_name}: {mode} (simulation, 95 % interval)")
+    ax.set(xscale="log", xlabel=ENERGY, ylabel="fraction broken", ylim=(-0.02, 1.02),
+           title="Breakage probability: simulation vs model (seed 002 Fig. 8)")
+    ax.legend(loc="upper left")
+    fig.savefig(out)
 
 
 def repeated(ds, out):
     """Seed 002 Fig. 11: cumulative fraction broken after each repeated impact, several gamma."""
-    fig = _figure((7, 5))
+    fig = _figure((6.5, 4.4))
     ax = fig.subplots()
     colours = matplotlib.colormaps["viridis"]
     ng = ds.sizes["gamma"]
@@ -61,28 +67,41 @@ def repeated(ds, out):
         c = colours(g / max(ng - 1, 1))
         sub = ds.isel(gamma=g)
         k = ds["impact"].values
-        ax.plot(k, sub["rep_analytic"], "-", color=c, label=f"model, gamma = {float(ds['gamma'][g]):g}")
+        gamma = float(ds["gamma"][g])
+        ax.plot(k, sub["rep_analytic"], "-", color=c,
+                label=f"model (eqs 1-6), {SYMBOL['gamma']} = {gamma:g}")
         f = sub["rep_fraction"].values
         ax.errorbar(k, f, yerr=[f - sub["rep_ci_lo"].values, sub["rep_ci_hi"].values - f], fmt="o",
-                    color=c, ms=3, capsize=2, ls="none")
-    ax.set(xlabel="impact number", ylabel="cumulative fraction broken [1]", ylim=(0, 1),
-           title=f"Repeated impacts: {ds.attrs.get('rep_material', '')} "
+                    color=c, ms=4, ls="none",
+                    label=f"simulation, 95 % interval, {SYMBOL['gamma']} = {gamma:g}")
+    ax.set(xlabel="impact number", ylabel="cumulative fraction broken", ylim=(0, 1),
+           title=f"Repeated impacts: {ds.attrs.get('rep_material', '')}, "
                  f"{1e3 * float(ds.attrs.get('rep_diameter_m', math.nan)):g} mm at "
-                 f"{float(ds.attrs.get('rep_specific_energy_J_per_kg', math.nan)):g} J/kg "
-                 "(seed 002 Fig. 11; symbols: simulation, 95% CI)")
-    ax.title.set_fontsize("small")
-    ax.legend(fontsize="small")
-    fig.savefig(out, dpi=120)
+                 f"{float(ds.attrs.get('rep_specific_energy_J_per_kg', math.nan)):g} J kg$^{{-1}}$ "
+                 "(seed 002 Fig. 11)")
+    ax.xaxis.get_major_locator().set_params(integer=True)
+    ax.legend(loc="lower right")
+    fig.savefig(out)
+
+
+def _frag_model(ds, i):
+    """(material, diameter, absorbed share) of fragmentation case ``i``: the model curves' input."""
+    path = ds.attrs.get("frag_materials_file", tavares.MATERIALS_FILE)
+    mat = _material(str(ds["frag_material"].values[i]), path)
+    share = float(np.nanmean(ds["t10_absorbed_share"].isel(frag_case=i)))
+    return mat, float(ds["frag_diameter"].values[i]), share
 
 
 def t10(ds, out):
-    """Seed 002 Fig. 16: t10 of the product vs input specific energy, simulation vs eq 7.
-    Colour: material/mode/size; marker: when particles break (breakage_at)."""
-    fig = _figure((8.5, 5.5))
+    """Seed 002 Fig. 16: t10 of the product vs input specific energy, simulation vs eq 7 on a
+    dense grid. Colour: material/mode/size; marker: when particles break (breakage_at)."""
+    fig = _figure((8.8, 4.8))
     ax = fig.subplots()
     colours = matplotlib.colormaps["tab10"]
     markers = {"first_reach": "o", "end_of_loading": "s"}
-    groups = []
+    groups, n = [], 0
+    energies = ds["t10_specific_energy"].values
+    lo, hi = np.nanmin(energies) / 1.6, np.nanmax(energies) * 1.6
     for i, name in enumerate(ds["frag_case"].values):
         group, _, at = str(name).rpartition("/")
         first = group not in groups
@@ -90,66 +109,80 @@ def t10(ds, out):
             groups.append(group)
         c = colours(groups.index(group))
         sub = ds.isel(frag_case=i)
-        E = sub["t10_specific_energy"].values
-        ok = np.isfinite(sub["t10"].values)
-        order = np.argsort(E[ok])
         if first:  # the model does not depend on breakage_at
-            for key, style, lw in (("t10_model", "-", 1.4), ("t10_model_all", ":", 1.0),
-                                   ("t10_primary", "--", 0.8)):
-                ax.plot(E[ok][order], sub[key].values[ok][order], style, color=c, lw=lw,
-                        label=f"{group}: eq 7" if key == "t10_model" else None)
+            mat, d, share = _frag_model(ds, i)
+            E = dense(lo, hi, 200, log=True)
+            for median, style, text in (("broken", "-", f"eq 7, {SYMBOL['E50b']} of the broken"),
+                                        ("all", ":", "eq 7, median of all")):
+                ax.plot(E, [t10_model(mat, d, e, share, median) for e in E], style, color=c,
+                        label=f"{group}: {text}")
+            ax.axhline(float(np.nanmean(sub["t10_primary"])), color=c, ls="--", lw=0.9,
+                       label=f"{group}: eq 9 (breakage at the fracture energy)")
         t = sub["t10"].values
-        ax.errorbar(E[ok], t[ok], yerr=[t[ok] - sub["t10_lo"].values[ok], sub["t10_hi"].values[ok] - t[ok]],
+        ok = np.isfinite(t)
+        n = max(n, int(ok.sum()))
+        ax.errorbar(sub["t10_specific_energy"].values[ok], t[ok],
+                    yerr=[t[ok] - sub["t10_lo"].values[ok], sub["t10_hi"].values[ok] - t[ok]],
                     fmt=markers.get(at, "^"), color=c, mfc="white" if at == "end_of_loading" else c,
-                    capsize=2, ls="none", label=f"{group}, {at}")
-    ax.set(xscale="log", xlabel="input specific energy Ek/m [J/kg]", ylabel="t10 [%]",
-           title="t10 vs energy (seed 002 Fig. 16), 95% bootstrap intervals\n"
-                 "solid: eq 7 (E50b of the broken), dotted: E50 of all, dashed: eq 9")
-    ax.title.set_fontsize("small")
-    ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    fig.savefig(out, dpi=120)
+                    ls="none", label=f"{group}, {at.replace('_', ' ')} (simulation, 95 % interval)")
+    few_points_note(ax, n, "energy")
+    ax.set(xscale="log", xlabel=ENERGY, ylabel=T10, ylim=(0, None),
+           title=f"{SYMBOL['t10']} of the broken particles' product vs energy (seed 002 Fig. 16)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.savefig(out)
 
 
 def size_distributions(ds, out):
     """Seed 002 Figs. 13-15: cumulative product size distribution of the broken particles, with the
-    fines extension (eq 11) below the smallest family size; lines: eq 10 model."""
+    fines extension (eq 11) below the smallest family size; lines: eq 10 model on a dense grid."""
     n = ds.sizes["frag_case"]
-    fig = _figure((6 * n, 4.8))
-    axes = np.atleast_1d(fig.subplots(1, n, squeeze=False)[0])
-    colours = matplotlib.colormaps["plasma"]
+    cols = min(n, 2)
+    rows = -(-n // cols)
+    fig = _figure((5.6 * cols + 1.2, 4.2 * rows))
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False).ravel())
+    energies = ds["t10_specific_energy"].values
+    norm = matplotlib.colors.LogNorm(np.nanmin(energies), np.nanmax(energies) * 1.0001)
+    cmap = matplotlib.colormaps["plasma"]
     x = ds["sieve"].values
-    nr = ds.sizes["frag_ratio"]
-    for i, ax in enumerate(axes):
+    xd = dense(x.min(), x.max(), log=True)
+    for i, ax in enumerate(axes[:n]):
         sub = ds.isel(frag_case=i)
-        for r in range(nr):
-            c = colours(r / max(nr, 1))
+        mat, d, share = _frag_model(ds, i)
+        for r in range(ds.sizes["frag_ratio"]):
             sim = sub["psd_sim"].isel(frag_ratio=r).values
             if not np.isfinite(sim).any():
                 continue
             E = float(sub["t10_specific_energy"].isel(frag_ratio=r))
-            ax.plot(x, sub["psd_model"].isel(frag_ratio=r), "-", color=c, lw=1)
-            ax.plot(x, sim, "o", color=c, ms=3, label=f"{E:.0f} J/kg")
-        ax.axvline(tavares.SIEVE_RATIO ** -tavares.STANDARD_CLASSES, color="k", ls="--", lw=0.8)
-        ax.axvline(0.05, color="r", ls="--", lw=0.8)
-        ax.set(xscale="log", yscale="log", xlabel="size / initial size [1]", ylabel="cumulative % passing",
-               ylim=(0.01, 110), title=f"{sub['frag_case'].item()} (symbols: sim., lines: model)")
-        ax.title.set_fontsize("small")
-        ax.legend(fontsize="x-small")
-    fig.savefig(out, dpi=120)
+            c = cmap(0.85 * norm(E))
+            ax.plot(xd, product_passing_model(mat, d, E, share, xd), "-", color=c, lw=1)
+            ax.plot(x, sim, "o", color=c, ms=3, label=f"{E:.0f} J kg$^{{-1}}$")
+        ax.axvline(tavares.SIEVE_RATIO ** -tavares.STANDARD_CLASSES, color="k", ls="--", lw=0.8,
+                   label="smallest family size 0.21 d")
+        ax.axvline(0.05, color="r", ls="--", lw=0.8, label="global minimum size d/20")
+        ax.set(xscale="log", yscale="log", xlabel="size / initial size",
+               ylabel="cumulative passing [%]", ylim=(0.01, 110),
+               title=f"{sub['frag_case'].item()}\n(symbols: simulation; lines: eq 10 at the eq 7 "
+                     f"{SYMBOL['t10']})")
+        ax.legend(loc="lower right")
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    fig.savefig(out)
 
 
 def table2(ds, out):
     """Seed 002 Table 2: mean % passing of the t10' = 3 % families, ours vs the paper's."""
-    fig = _figure((6.5, 4.5))
+    fig = _figure((6.0, 4.2))
     ax = fig.subplots()
     x = ds["table2_sieve"].values
-    ax.plot(x, ds["table2_target"], "k-", lw=1, label="eq 10 target (Table 1 average parameters)")
+    xd = dense(x.min(), x.max(), log=True)
+    ax.plot(xd, tavares.cumulative_passing(3.0, xd, tavares.TABLE1_AVERAGE), "k-", lw=1,
+            label="eq 10 target (Table 1 average parameters)")
     ax.plot(x, ds["table2_seed"], "s", mfc="none", label="seed 002 Table 2 (7 families)")
     ax.plot(x, ds["table2_families"], "o", ms=4, label="millsim families")
-    ax.set(xscale="log", yscale="log", xlabel="relative size x/d [1]", ylabel="cumulative % passing",
-           title="Progeny families at t10' = 3 %")
-    ax.legend(fontsize="small")
-    fig.savefig(out, dpi=120)
+    ax.set(xscale="log", yscale="log", xlabel="relative size x/d", ylabel="cumulative passing [%]",
+           title=f"Progeny families at {SYMBOL['t10']}' = 3 %")
+    ax.legend()
+    fig.savefig(out)
 
 
 def _material(name, path, truncation="single_particle"):
