@@ -19,7 +19,7 @@ def test_help_and_scenes(capsys):
     assert exit_info.value.code == 0
     # one front door: every stage of the pipeline is a subcommand
     out = capsys.readouterr().out
-    for command in ("scenes", "run", "info", "aggregate", "plot", "analyse"):
+    for command in ("scenes", "run", "info", "aggregate", "plot", "analyse", "report", "verdicts"):
         assert command in out
     with pytest.raises(SystemExit) as exit_info:
         main(["analyse", "--help"])

@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
 from ..analysis.accuracy import points_frame
+from .style import label
 
 FLOOR = 1e-4  # errors below (0.01 %, e.g. exactly zero at the reference step) are drawn here
 
@@ -98,11 +99,11 @@ def error_vs_runtime(ds, out, name):
         _tidy_log_axis(left)
         left.legend(fontsize="x-small")
         method = t_obs["reference_method"].iloc[0]
-        right.set(xscale="log", xlabel="time step [s] (dotted: stability limit)",
-                  ylabel=f"{obs} [{units}]",
+        right.set(xscale="log", xlabel=label("time step", "s") + " (dotted: stability limit)",
+                  ylabel=label(obs, units),
                   title=f"mean +- sd over seeds; dashed: reference ({method})")
         right.title.set_fontsize("small")
         _tidy_log_axis(right)
         right.legend(fontsize="x-small")
     fig.suptitle(f"Error against run time: {name} (labels: ladder values)")
-    fig.savefig(out, dpi=110)
+    fig.savefig(out)

@@ -10,6 +10,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from ..io import open_snapshots
+from .style import label
 
 
 def _frame(group):
@@ -33,9 +34,10 @@ def animation(snapshots: str | os.PathLike[str], out: str, fps: int = 10) -> Non
         colour = ScalarMappable(Normalize(0.0, vmax or 1.0), "viridis")
         fig = Figure(figsize=(5.5, 5), layout="constrained")
         ax = fig.add_subplot()
-        ax.set(xlim=(-reach, reach), ylim=(-reach, reach), aspect="equal", xlabel="x [m]",
-               ylabel="y [m]")
-        fig.colorbar(colour, ax=ax, label="grain speed [m s-1]")
+        ax.set(xlim=(-reach, reach), ylim=(-reach, reach), aspect="equal", xlabel=label("x", "m"),
+               ylabel=label("y", "m"))
+        ax.grid(False)
+        fig.colorbar(colour, ax=ax, label=label("grain speed", "m s-1"))
         writer = PillowWriter(fps=fps)
         with writer.saving(fig, out, dpi=100):
             for group in frames:

@@ -119,13 +119,13 @@ def capture_radius(ds: xr.Dataset, out: str) -> None:
     if np.isfinite(pitch):
         for k in range(1, rings + 1):
             ax.axhline(k * pitch, color="0.6", ls=":", lw=0.8)
-            ax.text(e.min(), k * pitch, f" ring {k} ({k * pitch:.2g} mm)", va="bottom",
+            ax.text(e.min(), k * pitch, f"ring {k} ({k * pitch:.3g} mm)", va="top",
                     fontsize=7, color="0.4")
     few_points_note(ax, n, "energy")
     ax.set(xscale="log", xlabel=ENERGY, ylabel=label("capture radius", "mm"), ylim=(-0.5, None),
            title="Capture radius: largest distance of a broken bed particle from the ball axis\n"
                  f"({_seeds_note(ds)}; 0: only the central particle broke)")
-    ax.legend(loc="upper left")
+    ax.legend(loc="center right")
     fig.savefig(out)
 
 
@@ -141,6 +141,9 @@ def size_distributions(ds: xr.Dataset, out: str) -> None:
         lines = [(f"{e:g} J", cmap(0.85 * norm(e)), sub["passing_fraction_mean"].sel(impact_energy=e))
                  for e in energies
                  if bool(sub["passing_fraction_mean"].sel(impact_energy=e).notnull().all())]
+        # a product without fines (nothing broke) has no point on the log axes: say so
+        lines = [(lab if float(var[1:].max()) > 0 else f"{lab}: nothing broke", c, var)
+                 for lab, c, var in lines]
         if len(lines) > 1:
             panels.append((f"{lab}: per impact energy (seed Fig. 21)", lines))
     e_ref = _reference_energy(ds)
@@ -170,6 +173,6 @@ def size_distributions(ds: xr.Dataset, out: str) -> None:
         ax.legend(loc="lower right")
     for ax in axes[len(panels):]:
         ax.set_visible(False)
-    fig.suptitle("Product size distributions, mean over seeds (dummy spheres and unresolved "
-                 "fines spread below their size by eq 11)")
+    fig.suptitle("Product size distributions, mean over seeds\n(dummy spheres and fines spread "
+                 "below their size by eq 11)")
     fig.savefig(out)

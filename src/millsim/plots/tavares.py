@@ -95,7 +95,7 @@ def _frag_model(ds, i):
 def t10(ds, out):
     """Seed 002 Fig. 16: t10 of the product vs input specific energy, simulation vs eq 7 on a
     dense grid. Colour: material/mode/size; marker: when particles break (breakage_at)."""
-    fig = _figure((8.8, 4.8))
+    fig = _figure((7.5, 5.0))
     ax = fig.subplots()
     colours = matplotlib.colormaps["tab10"]
     markers = {"first_reach": "o", "end_of_loading": "s"}
@@ -128,7 +128,7 @@ def t10(ds, out):
     few_points_note(ax, n, "energy")
     ax.set(xscale="log", xlabel=ENERGY, ylabel=T10, ylim=(0, None),
            title=f"{SYMBOL['t10']} of the broken particles' product vs energy (seed 002 Fig. 16)")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.legend(loc="upper left")
     fig.savefig(out)
 
 
@@ -154,8 +154,9 @@ def size_distributions(ds, out):
                 continue
             E = float(sub["t10_specific_energy"].isel(frag_ratio=r))
             c = cmap(0.85 * norm(E))
-            ax.plot(xd, product_passing_model(mat, d, E, share, xd), "-", color=c, lw=1)
-            ax.plot(x, sim, "o", color=c, ms=3, label=f"{E:.0f} J kg$^{{-1}}$")
+            ax.plot(xd, product_passing_model(mat, d, E, share, xd), "-", color=c, lw=1,
+                    label=f"{E:.0f} J kg$^{{-1}}$: model (line), simulation (symbols)")
+            ax.plot(x, sim, "o", color=c, ms=3)
         ax.axvline(tavares.SIEVE_RATIO ** -tavares.STANDARD_CLASSES, color="k", ls="--", lw=0.8,
                    label="smallest family size 0.21 d")
         ax.axvline(0.05, color="r", ls="--", lw=0.8, label="global minimum size d/20")
@@ -163,7 +164,7 @@ def size_distributions(ds, out):
                ylabel="cumulative passing [%]", ylim=(0.01, 110),
                title=f"{sub['frag_case'].item()}\n(symbols: simulation; lines: eq 10 at the eq 7 "
                      f"{SYMBOL['t10']})")
-        ax.legend(loc="lower right")
+        ax.legend(loc="upper left")
     for ax in axes[n:]:
         ax.set_visible(False)
     fig.savefig(out)
