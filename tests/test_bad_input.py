@@ -156,6 +156,8 @@ STAGES = {
     "stirred friction": lambda f: ["analyse", "stirred-mill", "friction", f, "--reference",
                                    f, "--table", "t.csv", "--summary", "s.csv",
                                    "--choice", "c.json"],
+    "report": lambda f: ["report", "--ballmill", f, "--json", "s.json", "--rst", "l.rst"],
+    "verdicts": lambda f: ["verdicts", f],
 }
 
 

@@ -279,25 +279,26 @@ def _read_json(path):
 def summarise(ballmill_path=None, forcechain_path=None, bed_path=None, tavares_path=None,
               stirred_path=None, calibration_paths=None, command=""):
     """The summary of whichever studies are given (a dict, JSON-serialisable)."""
-    studies = []
-    if ballmill_path:
-        studies.append(ballmill(ballmill_path))
-    if forcechain_path:
-        studies.append(forcechain(forcechain_path))
-    if bed_path:
-        studies.append(bed(bed_path))
-    if tavares_path:
-        studies.append(tavares(tavares_path))
-    if stirred_path:
-        studies.append(stirred(stirred_path))
+    studies = [_read(study, path) for study, path in (
+        (ballmill, ballmill_path), (forcechain, forcechain_path), (bed, bed_path),
+        (tavares, tavares_path), (stirred, stirred_path)) if path]
     synthetic = False
     if calibration_paths:
-        cal = calibration(*calibration_paths)
+        cal = _read(calibration, *calibration_paths)
         synthetic = cal["numbers"]["synthetic"]
         studies.append(cal)
     verdicts = ordered([v for s in studies for v in s.pop("verdicts")])
     return dict(command=command, synthetic_reference=synthetic, verdicts=verdicts,
                 studies=studies)
+
+
+def _read(study, path, *more):
+    """``study(path, *more)``; a readable file of another kind is named in one line."""
+    try:
+        return study(path, *more)
+    except KeyError as exc:
+        raise ValueError(f"{path}: no {exc.args[0]!r}; not the {study.__name__} input of "
+                         "`millsim report` (see --help)") from None
 
 
 def ordered(verdicts):
