@@ -188,7 +188,7 @@ def test_analyse_borrowed_reference_and_choice():
 def test_dataset_roundtrip_summary_and_figure(tmp_path):
     cases = synthetic_cases()
     points, choices = acc.analyse(cases, links={("ballmill", "verlet"): "gear"})
-    ds = acc.to_dataset(cases, points, choices, {"tolerance": 0.01})
+    ds = acc.to_dataset(cases, points, choices, {"tolerance": 0.01, "title": "synthetic"})
     path = tmp_path / "accuracy.nc"
     write_netcdf(path, ds)
     with xr.open_dataset(path, engine="netcdf4") as back:

@@ -189,6 +189,12 @@ class Simulation:
         self.tags = {}
         for name, values in (tags or {}).items():
             self.tags[name] = self._tag_array(name, values, n)
+        # Who is who, to follow fragments across snapshots: an id per particle, never reused, and
+        # the id of the particle it broke from (-1: none). Python-side, like the tags: the compiled
+        # loop never sees them, so they cost nothing in a step, with or without breakage.
+        self.particle_ids = np.arange(n, dtype=np.int64)
+        self.parent_ids = np.full(n, -1, dtype=np.int64)
+        self._next_id = n
         self._fields = {m: _model_fields(m, n) for m in (breakage, fluid) if m is not None}
         self.skin = 0.1 * 2.0 * float(np.mean(radius)) if skin is None else float(skin)
         self.time = 0.0
@@ -582,16 +588,19 @@ class Simulation:
         self.particles = select_rows(self.particles, keep, n)
         self._W = self._W._replace(hist=self._W.hist[keep])
         self.tags = {name: values[keep] for name, values in self.tags.items()}
+        self.particle_ids, self.parent_ids = self.particle_ids[keep], self.parent_ids[keep]
         for model in self._fields:
             self._fields[model] = select_rows(self._fields[model], keep, n)
             self._publish(model)
         self._after_change(relabelled)
 
-    def add_particles(self, x, radius, material, v=None, w=None, tags=None):
+    def add_particles(self, x, radius, material, v=None, w=None, tags=None, parent_ids=None):
         """Append free particles; the time step bound is re-evaluated (fragments shrink it).
 
         ``tags``: {name: values} for the new particles, for every tag the simulation keeps.
-        Models give the new particles their declared defaults. Returns their indices.
+        ``parent_ids``: for fragments, the ``particle_ids`` of the particles they broke from
+        (default: none, -1). Models give the new particles their declared defaults. The new
+        particles get fresh ids. Returns their indices.
         """
         radius = np.asarray(radius, dtype=float)
         m = len(radius)
@@ -599,12 +608,20 @@ class Simulation:
         tags = dict(tags or {})
         if set(tags) != set(self.tags):
             raise ValueError(f"tags: give values for {sorted(self.tags)}, got {sorted(tags)}")
+        parents = np.asarray(np.full(m, -1) if parent_ids is None else parent_ids, np.int64)
+        if parents.shape != (m,) or (parents < -1).any() or (parents >= self._next_id).any():
+            raise ValueError(f"parent_ids: {m} ids of existing or earlier particles (or -1), got "
+                             f"{parents!r}")
         new = self._make_particles(x, radius, material, v, w, None)
         self.particles = append_rows(self.particles, new, n_old)
         self._W = self._W._replace(hist=np.concatenate(
             [self._W.hist, np.zeros((m, len(self.walls), self.layout.wall_columns))]))
         for name in self.tags:
             self.tags[name] = np.concatenate([self.tags[name], self._tag_array(name, tags[name], m)])
+        self.particle_ids = np.concatenate([self.particle_ids,
+                                            np.arange(self._next_id, self._next_id + m)])
+        self.parent_ids = np.concatenate([self.parent_ids, parents])
+        self._next_id += m
         for model in self._fields:
             self._fields[model] = append_rows(self._fields[model], _model_fields(model, m), n_old)
             self._publish(model)

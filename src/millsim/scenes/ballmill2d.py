@@ -283,8 +283,11 @@ class BallMillCase(Case):
         v = self.v
         edges = self.grid_edges
         centres = 0.5 * (edges[1:] + edges[:-1])
-        coords = {"gx": ("gx", centres, {"units": "m", "long_name": "map cell centre x"}),
-                  "gy": ("gy", centres, {"units": "m", "long_name": "map cell centre y"})}
+        # CF axes: x is horizontal (X), y is vertical (Z, gravity along -y)
+        coords = {"gx": ("gx", centres, {"units": "m", "long_name": "map cell centre x",
+                                         "axis": "X"}),
+                  "gy": ("gy", centres, {"units": "m", "long_name": "map cell centre y",
+                                         "axis": "Z", "positive": "up"})}
         data = {}
         with np.errstate(invalid="ignore"):
             data["pressure"] = (("gy", "gx"), np.where(self.pressure_n > 0, self.pressure_sum
@@ -329,10 +332,16 @@ class BallMillCase(Case):
         cell_area = (edges[1] - edges[0]) ** 2
         data["fracture_frequency"] = (("gy", "gx"), hist / (window * cell_area),
                                       {"units": "s-1 m-2", "long_name": "fracture events per time and area"})
-        coords["snapshot"] = ("snapshot", np.array(self.snapshots), {"units": "s", "long_name": "size snapshot time"})
-        coords["size_class"] = ("size_class", 0.5 * (self.size_edges[1:] + self.size_edges[:-1]),
-                                {"units": "m", "long_name": "grain radius class centre"})
-        data["size_class_edges"] = ("size_class_edge", self.size_edges, {"units": "m", "long_name": "radius class edges"})
+        coords["snapshot"] = ("snapshot", np.array(self.snapshots),
+                              {"units": "s", "long_name": "size snapshot time",
+                               "standard_name": "time", "axis": "T"})
+        edges = self.size_edges
+        coords["size_class"] = ("size_class", 0.5 * (edges[1:] + edges[:-1]),
+                                {"units": "m", "long_name": "grain radius class centre",
+                                 "bounds": "size_class_bounds"})
+        coords["size_class_bounds"] = (("size_class", "bound"),
+                                       np.column_stack([edges[:-1], edges[1:]]),
+                                       {"units": "m", "long_name": "grain radius class bounds"})
         data["size_distribution"] = (("snapshot", "size_class"),
                                      np.array(self.size_dist).reshape(-1, v["size_classes"]),
                                      {"units": "kg", "long_name": "grain mass per radius class"})

@@ -211,7 +211,8 @@ class RunContext:
             return
         p = sim.particles
         self.snapshots.write(sim.time, p.x, p.radius, p.v, angular_velocity=p.w,
-                             kinematic=(p.body >= 0).astype("int32"))
+                             kinematic=(p.body >= 0).astype("int32"),
+                             particle_id=sim.particle_ids, parent_id=sim.parent_ids)
 
 
 REGISTRY: dict = {}

@@ -533,8 +533,11 @@ class StirredMillCase(Case):
             "audit_term": var("audit_term", np.array(AUDIT), "1", "dissipation term of the engine audit"),
             "region": var("region", np.array(REGIONS), "1",
                           "region: radial ring 1 (inner) - 3 (outer) x F(ront)/C(entre)/B(ack) along x"),
-            "gy": var("gy", centres, "m", "coarse-graining cell centre y"),
-            "gz": var("gz", centres, "m", "coarse-graining cell centre z"),
+            # CF axes: y horizontal, z vertical (gravity along -z)
+            "gy": ("gy", centres, {"units": "m", "long_name": "coarse-graining cell centre y",
+                                   "axis": "Y"}),
+            "gz": ("gz", centres, {"units": "m", "long_name": "coarse-graining cell centre z",
+                                   "axis": "Z", "positive": "up"}),
         }
         data = {
             "net_power": var((), p_mean, "W", "steady-state mean net power"),
