@@ -109,9 +109,9 @@ def write_drum_stl(path: Path, radius: float = 0.04, length: float = 0.04,
                 v = [tri[2][k] - tri[0][k] for k in range(3)]
                 n = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
                 norm = math.sqrt(sum(x * x for x in n))
-                lines.append("facet normal %g %g %g" % tuple(x / norm for x in n))
+                lines.append("facet normal " + " ".join(f"{x / norm:g}" for x in n))
                 lines.append(" outer loop")
-                lines.extend("  vertex %.9e %.9e %.9e" % p for p in tri)
+                lines.extend("  vertex " + " ".join(f"{c:.9e}" for c in p) for p in tri)
                 lines.append(" endloop")
                 lines.append("endfacet")
     lines.append("endsolid drum")

@@ -114,7 +114,8 @@ def leave_out():
              "loops compiled with more physics than it uses, all of it inactive (fracture energies "
              "infinite, eta = 0): `inactive` = Tavares breakage + lubrication + energy audit, "
              "`breakage`, `lubrication`, `audit` = each alone. Median of the repeats; ratio = "
-             "median / median of `lean` (the scene's own loop) from the same file. Each file names the command that wrote it "
+             "median / median of `lean` (the scene's own loop) from the same file. Each file "
+             "names the command that wrote it "
              "(`leave_out_1.json`: `python bench/leave_out.py`, three variants, one thread, before "
              "the split).", ""]
     for p, d in files:

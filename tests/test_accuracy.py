@@ -138,7 +138,7 @@ def synthetic_cases(seeds=(1, 2, 3)):
     the same converged drive power 1.0 W; the rate has seed noise (sd 5 s-1) and noise that
     differs from step to step (+-3 s-1) larger than its step dependence (up to 2 s-1, 4 %)."""
     rows = []
-    for series, spc, c, link in (("gear", [100, 50, 25, 16], 0.002, None),
+    for series, spc, c, _link in (("gear", [100, 50, 25, 16], 0.002, None),
                                  ("verlet", [50, 25, 16, 10], 0.02, "gear")):
         for n in spc:
             h = 1e-4 / n

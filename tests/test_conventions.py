@@ -8,7 +8,7 @@ and tests/test_bed_impact.py (Tavares), so this file adds no kernel compilation 
 
 import json
 import sys
-from datetime import datetime, timedelta, timezone
+from datetime import UTC, datetime, timedelta
 
 import netCDF4
 import numpy as np
@@ -88,7 +88,7 @@ def test_case_file_carries_the_cf_attributes(ballmill):
     assert glob["title"].startswith("millsim ballmill2d case: 2D ball mill")
     when, command = glob["history"].split(" ", 1)
     assert when == glob["created_utc"]
-    assert timedelta(0) <= datetime.now(timezone.utc) - datetime.fromisoformat(when) \
+    assert timedelta(0) <= datetime.now(UTC) - datetime.fromisoformat(when) \
         < timedelta(minutes=30)
     assert command  # this process's command line (pytest's here: main() ran in-process)
     assert {name: var[name].get("units") for name in ("time", "snapshot", "gx", "gy",

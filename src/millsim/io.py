@@ -31,7 +31,7 @@ import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from contextlib import contextmanager
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -246,7 +246,7 @@ def write_netcdf(path: str | os.PathLike[str], data: xr.Dataset,
         if name in ds.coords:
             # CF forbids missing values in coordinates; xarray would add a NaN _FillValue to floats
             variable.encoding = {"_FillValue": None, **variable.encoding}
-    created = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    created = datetime.now(UTC).isoformat(timespec="seconds")
     history = "\n".join(filter(None, [f"{created} {_command_line()}", given.get("history")]))
     ds.attrs = {
         **{k: _attr_value(k, v) for k, v in given.items()},

@@ -18,15 +18,38 @@ import numba
 import numpy as np
 
 from ..util.validation import check_range
-from .kinematics import (B_AXIS, B_KIND, B_RATE, BODY_COLUMNS, BODY_KINDS, W_ACTIVE, W_AXIS,
-                         W_MATERIAL, W_OMEGA, W_POINT, W_RADIUS, WALL_COLUMNS, WALL_KINDS,
-                         wall_contact)
+from .kinematics import (
+    B_AXIS,
+    B_KIND,
+    B_RATE,
+    BODY_COLUMNS,
+    BODY_KINDS,
+    W_ACTIVE,
+    W_AXIS,
+    W_MATERIAL,
+    W_OMEGA,
+    W_POINT,
+    W_RADIUS,
+    WALL_COLUMNS,
+    WALL_KINDS,
+    wall_contact,
+)
 from .loop import AUDIT_TERMS, ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED, N_AUDIT, Layout
 from .neighbours import build_verlet, wrap_periodic
 from .spec import PhysicsSpec, chunk_runner
-from .state import (Accumulators, BodyArrays, ContactList, RunSettings, WallArrays, allocate,
-                    append_rows, disk_or_sphere_mass, empty_contacts, moment_of_inertia,
-                    select_rows)
+from .state import (
+    Accumulators,
+    BodyArrays,
+    ContactList,
+    RunSettings,
+    WallArrays,
+    allocate,
+    append_rows,
+    disk_or_sphere_mass,
+    empty_contacts,
+    moment_of_inertia,
+    select_rows,
+)
 from .timestep import STEPS_PER_CONTACT_LIMIT, time_step_report
 
 # Below this many particles one thread is faster than opening parallel regions every step

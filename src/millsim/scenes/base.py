@@ -12,11 +12,11 @@ import math
 import numbers
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 from ..engine import BYTES_PER_PARTICLE, StepPolicy
-
 from ..util.validation import check_range
 
 # Integer parameters are stored as 64-bit netCDF attributes; a float holds every integer only up

@@ -28,8 +28,7 @@ from ..models.contact import linear_contact_time
 from ..models.lubrication import check_lubrication_params
 from ..models.materials import damping_ratio
 from ..util.stats import block_mean_ci
-from .base import (TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register,
-                   step_policy)
+from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
 from .driver import Case, Series
 
 G = 9.81
@@ -200,8 +199,8 @@ def _place_beads(values, g, disk_x, disk_r, rng):
     cells = np.arange(-math.ceil(R / a) - 1, math.ceil(R / a) + 2)
     cx = np.arange(0, math.ceil((hi_x - lo_x) / a) + 1)
     base = np.array([[0, 0, 0], [0, 0.5, 0.5], [0.5, 0, 0.5], [0.5, 0.5, 0]])
-    I, J, K = np.meshgrid(cx, cells, cells, indexing="ij")
-    corner = np.column_stack([I.ravel(), J.ravel(), K.ravel()]).astype(float)
+    ci, cj, ck = np.meshgrid(cx, cells, cells, indexing="ij")
+    corner = np.column_stack([ci.ravel(), cj.ravel(), ck.ravel()]).astype(float)
     lattice = ((corner[:, None, :] + base[None]) * a).reshape(-1, 3)
     tree = cKDTree(disk_x) if len(disk_x) else None
     best = None
@@ -292,7 +291,7 @@ def elastic_energy(sim, k_n, k_t):
     tangential += 0.5 * k_t * float((sim.wall_hist[:, :, 0:3] ** 2).sum())
     p = sim.particles
     free = sim.free
-    for iw, wall in enumerate(sim.walls):
+    for wall in sim.walls:
         d = p.x[free] - wall[1:4]
         r = p.radius[free]
         if int(wall[0]) == PLANE:

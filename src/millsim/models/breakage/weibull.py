@@ -19,9 +19,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ...engine.events import room_for
 from ...engine.models import NO_BREAKAGE, ParticleModel, stable_identity
 from ...engine.rng import hash_uniform
-from ...engine.events import room_for
 from ...util.validation import check_range
 from ..contact import P_GAMMA_N, P_K_N
 
