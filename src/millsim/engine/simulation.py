@@ -7,6 +7,7 @@ Simulation allocates their per-particle arrays, keeps them in step with added an
 particles, and hands their hooks to the loop.
 """
 
+import math
 import signal
 import threading
 import time
@@ -21,6 +22,7 @@ from ..util.validation import check_range
 from .kinematics import (
     B_AXIS,
     B_KIND,
+    B_RAMP,
     B_RATE,
     BODY_COLUMNS,
     BODY_KINDS,
@@ -160,7 +162,9 @@ class Simulation:
         v, w: initial velocities [m/s] and angular velocities [rad/s] (default 0).
         body: kinematic body index per particle (-1 = free; default all free).
         walls: list of dicts ``{kind, point, normal|axis, radius, omega, material}``.
-        bodies: list of dicts ``{kind: rotate|translate, center, axis, rate}``.
+        bodies: list of dicts ``{kind: rotate|translate, center, axis, rate, ramp}`` (``ramp``:
+            seconds from rest to ``rate`` at constant acceleration; 0 or absent: at ``rate`` from
+            the start).
         gravity: acceleration vector [m/s2].
         box: periodic box (origin, lengths per axis) [m]; a length 0 is not periodic.
         skin: Verlet skin [m] (default 0.1 of the mean diameter).
@@ -289,7 +293,9 @@ class Simulation:
         # which is also what the body's power, torque x rate, assumes); a translating one's not.
         for b in np.unique(body[body >= 0]):
             rotating = self.bodies[b, B_KIND] == BODY_KINDS["rotate"]
-            w[body == b] = self.bodies[b, B_RATE] * self.bodies[b, B_AXIS] if rotating else 0.0
+            at_rest = self.bodies[b, B_RAMP] > 0.0  # a ramping body starts from rest
+            w[body == b] = (0.0 if at_rest else self.bodies[b, B_RATE]) * self.bodies[b, B_AXIS] \
+                if rotating else 0.0
         if self.spec.dim == 2:
             w[:, :2] = 0.0  # disks spin about z only
         # Kinematic particles: infinite mass and inertia (they never respond to forces).
@@ -338,6 +344,10 @@ class Simulation:
             table[k, 1:4] = np.asarray(b.get("center", (0, 0, 0)), dtype=float)
             table[k, B_AXIS] = _unit(b.get("axis", (0, 0, 1)), f"bodies[{k}].axis")
             table[k, B_RATE] = float(b.get("rate", 0.0))
+            ramp = float(b.get("ramp", 0.0))
+            if not ramp >= 0.0 or not math.isfinite(ramp):
+                raise ValueError(f"bodies[{k}].ramp: must be a finite time >= 0 s, got {ramp!r}")
+            table[k, B_RAMP] = ramp
         if len(bodies) and not self.spec.bodies:
             raise ValueError("bodies: given but spec.bodies is false")
         return table
