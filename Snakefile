@@ -25,6 +25,8 @@ report: REPORT_PAGE
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/ballmill.smk"
+
+
 # The other scenes' rules exist only when the config has their block.
 if "stirred_mill" in config:
 

@@ -69,7 +69,7 @@ def stirred_aggregate(path, rolling=-0.06, residual=2e-5):
                 "typology": ("typology", ["impact", "torsion", "shearing", "rolling"],
                              {"units": "1"}),
                 "audit_term": ("audit_term", ["a", "b"], {"units": "1"})},
-        attrs={"stacked_over": json.dumps(["eta", "rpm"])})
+        attrs={"stacked_over": json.dumps(["eta", "rpm"]), "title": "stirred-mill aggregate"})
     write_netcdf(path, ds)
     return path
 

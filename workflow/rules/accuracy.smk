@@ -55,8 +55,7 @@ for _name in ACCURACY_NAMES:
 
 def accuracy_tables():
     return [
-        f"results/accuracy/{name}/{series}.csv"
-        for name, series, _, _ in ACCURACY_STUDIES.values()
+        f"results/accuracy/{name}/{series}.csv" for name, series, _, _ in ACCURACY_STUDIES.values()
     ]
 
 
@@ -171,8 +170,7 @@ def accuracy_caption(wildcards):
     return (
         f"Accuracy study {wildcards.subject} (scene {ACCURACY_SCENES[wildcards.subject]}; "
         f"config accuracy.{wildcards.subject}): {fixed or 'scene defaults'}; seeds "
-        f"{block['seed']}; series {series}. "
-        + PLOTS[ACCURACY_FIGURE].caption
+        f"{block['seed']}; series {series}. " + PLOTS[ACCURACY_FIGURE].caption
     )
 
 
@@ -188,10 +186,10 @@ rule plot_accuracy:
         ),
     log:
         "results/logs/plot_accuracy/{subject}.log",
-    params:
-        caption=accuracy_caption,
     wildcard_constraints:
         subject="|".join(ACCURACY_NAMES) or "none",
+    params:
+        caption=accuracy_caption,
     shell:
         "millsim plot error_vs_runtime_{wildcards.subject} {input} --out {output} > {log} 2>&1"
 

@@ -29,9 +29,11 @@ def report_inputs(wildcards=None):
 
 def report_arguments(wildcards, input):
     return " ".join(
-        f"--{option} {' '.join(getattr(input, option))}"
-        if option == "calibration"
-        else f"--{option} {getattr(input, option)}"
+        (
+            f"--{option} {' '.join(getattr(input, option))}"
+            if option == "calibration"
+            else f"--{option} {getattr(input, option)}"
+        )
         for option in report_inputs()
     )
 

@@ -20,7 +20,6 @@ import numpy as np
 
 from ..io import read_case
 from . import stirred_mill as sm
-from . import tavares_verification as tv
 
 FAILED, UNDECIDED, PASSED = "FAIL", "n/a", "PASS"
 PER_S, PER_MIN, ETA, MU, NNC = "s\u207b\u00b9", "min\u207b\u00b9", "\u03b7", "\u03bc", "n/n_c"

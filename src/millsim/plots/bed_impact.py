@@ -86,7 +86,7 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
         width = 0.8 / len(mats)
         x = np.arange(len(configs))
         for k, mat in enumerate(mats):
-            sel = [at_ref.sel(material=mat, rings=r, layers=l) for r, l, _ in configs]
+            sel = [at_ref.sel(material=mat, rings=r, layers=lay) for r, lay, _ in configs]
             b.bar(x + (k - (len(mats) - 1) / 2) * width,
                   [100 * float(s["broken_fraction_mean"]) for s in sel], width,
                   yerr=[100 * np.nan_to_num(float(s["broken_fraction_std"])) for s in sel],
@@ -137,13 +137,13 @@ def size_distributions(ds: xr.Dataset, out: str) -> None:
     energies = ds["impact_energy"].values
     cmap, norm = matplotlib.colormaps["plasma"], matplotlib.colors.LogNorm(energies.min(),
                                                                             energies.max() * 1.0001)
-    for mat, rings, layers, lab, sub in _beds(ds):
+    for *_, lab, sub in _beds(ds):
         lines = [(f"{e:g} J", cmap(0.85 * norm(e)), sub["passing_fraction_mean"].sel(impact_energy=e))
                  for e in energies
                  if bool(sub["passing_fraction_mean"].sel(impact_energy=e).notnull().all())]
         # a product without fines (nothing broke) has no point on the log axes: say so
-        lines = [(lab if float(var[1:].max()) > 0 else f"{lab}: nothing broke", c, var)
-                 for lab, c, var in lines]
+        lines = [(name if float(var[1:].max()) > 0 else f"{name}: nothing broke", c, var)
+                 for name, c, var in lines]
         if len(lines) > 1:
             panels.append((f"{lab}: per impact energy (seed Fig. 21)", lines))
     e_ref = _reference_energy(ds)
@@ -154,8 +154,8 @@ def size_distributions(ds: xr.Dataset, out: str) -> None:
             panels.append((f"{str(mat).replace('_', ' ')}: per bed configuration at {e_ref:g} J "
                            "(seed Fig. 23)",
                            [(lab, f"C{k % 10}", at_ref["passing_fraction_mean"].sel(
-                               material=mat, rings=r, layers=l))
-                            for k, (r, l, lab) in enumerate(configs)]))
+                               material=mat, rings=r, layers=lay))
+                            for k, (r, lay, lab) in enumerate(configs)]))
     if not panels:  # one bed at one energy
         panels = [(lab, [(f"{e_ref:g} J", "C0", sub["passing_fraction_mean"].sel(
             impact_energy=e_ref))]) for *_, lab, sub in _beds(ds)]

@@ -11,8 +11,11 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..models.breakage import tavares
-from ..models.breakage.tavares_predictions import (breakage_probability, product_passing_model,
-                                                   t10_model)
+from ..models.breakage.tavares_predictions import (
+    breakage_probability,
+    product_passing_model,
+    t10_model,
+)
 from .style import SYMBOL, dense, few_points_note, label
 
 ENERGY = label(f"input specific energy {SYMBOL['Ek/m']}", "J kg-1")
