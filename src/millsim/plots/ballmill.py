@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.ticker import LogFormatter
 
-from .style import SYMBOL, label
+from .style import SYMBOL, few_points_note, label, points
 
 SPEED = "n_over_nc"
 REFERENCE_END = 1.232  # zero of the Bond/Austin speed factor
@@ -60,11 +60,14 @@ def rate(ds: xr.Dataset, out: str) -> None:
     """Fig. 6: relative comminution rate vs n/n_c, the empirical power shape, drive power."""
     fig = Figure(figsize=(7, 7.5), layout="constrained")
     ax_rate, ax_power = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
-    for lab, sub in _variants(ds):
+    n = 0
+    for k, (lab, sub) in enumerate(_variants(ds)):
         suffix = f" ({lab})" if lab else ""
-        ax_rate.errorbar(sub[SPEED], sub["relative_rate"], yerr=sub["relative_rate_ci"], fmt="o-",
-                         label=f"simulation, 95 % interval{suffix}")
-        ax_power.plot(sub[SPEED], sub["mean_drive_power"], "o-", label=f"simulation{suffix}")
+        n = max(n, points(ax_rate, sub[SPEED], sub["relative_rate"], sub["relative_rate_ci"],
+                          color=f"C{k % 10}", label=f"simulation, 95 % interval{suffix}"))
+        points(ax_power, sub[SPEED], sub["mean_drive_power"], color=f"C{k % 10}",
+               label=f"simulation{suffix}")
+    few_points_note(ax_power, n, "speed")
     phi = np.linspace(0.0, REFERENCE_END, 400)
     ax_rate.plot(phi, bond_austin_speed_factor(phi), "k-", lw=1,
                  label="empirical reference shape: Bond/Austin speed factor\n"
