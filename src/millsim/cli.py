@@ -470,7 +470,7 @@ def build_parser():
     p.set_defaults(func=cmd_report)
 
     p = sub.add_parser("verdicts", help="print the verification verdicts of a summary, failed "
-                       "first")
+                       "first (exit status 0 whatever they say; 2 for an unreadable summary)")
     p.add_argument("summary", help="summary JSON of `millsim report`")
     p.set_defaults(func=cmd_verdicts)
     return parser
