@@ -178,3 +178,24 @@ def test_every_rule_calls_millsim():
     wrong = [f"{name}: {cmd}" for name, cmd in commands if not cmd.startswith("millsim ")]
     assert not wrong, "\n".join(wrong)
     assert not any("python" in path.read_text() for path in rules if path.suffix == ".smk")
+
+
+@pytest.mark.parametrize("scene, own, other", [
+    ("stirred_mill", "results/aggregate/stirred_mill.nc", "ballmill"),
+    ("ballmill", "results/aggregate/ballmill.nc", "stirred_mill"),
+    ("bed_impact", "results/aggregate/bed_breakage.nc", "tavares"),
+    ("single_particle", "results/aggregate/tavares_verification.nc", "bed_"),
+])
+def test_one_scene_target_plans_that_scene_only(workdir, scene, own, other):
+    """`snakemake <scene>` (the README's 'run one scene'): the shipped config's jobs of that
+    scene, none of another's."""
+    updated = []
+    output = settings.OutputSettings(dryrun=True, quiet={settings.Quietness.ALL})
+    with api.SnakemakeApi(output) as sm:
+        workflow = sm.workflow(resource_settings=settings.ResourceSettings(cores=2),
+                               snakefile=workdir / "Snakefile", workdir=workdir)
+        workflow.dag(settings.DAGSettings(targets={scene})).execute_workflow(
+            executor="dryrun", updated_files=updated)
+    planned = {str(Path(f)) for f in updated}
+    assert own in planned
+    assert not [f for f in planned if other in f]

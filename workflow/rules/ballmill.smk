@@ -121,3 +121,13 @@ rule animate_ballmill:
         caption=PLOTS["animation"].caption,
     shell:
         "millsim plot animation {input} --out {output} > {log} 2>&1"
+
+
+# `snakemake --cores 2 ballmill`: this scene's part of `rule all` alone.
+localrules:
+    ballmill,
+
+
+rule ballmill:
+    input:
+        ballmill_targets(),

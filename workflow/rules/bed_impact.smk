@@ -100,3 +100,13 @@ def bed_impact_targets():
 
 
 SCENE_TARGETS.append(bed_impact_targets)
+
+
+# `snakemake --cores 2 bed_impact`: this scene's part of `rule all` alone.
+localrules:
+    bed_impact,
+
+
+rule bed_impact:
+    input:
+        bed_impact_targets(),

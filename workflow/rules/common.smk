@@ -271,7 +271,8 @@ def figure_caption(wildcards):
 SCENE_TARGETS = []
 
 
-def all_targets():
+def ballmill_targets():
+    """What `rule all` asks of the ball mill."""
     return [
         "results/aggregate/ballmill.nc",
         "results/aggregate/ballmill_forcechain.nc",
@@ -280,5 +281,11 @@ def all_targets():
             f"results/plots/ballmill_animation/{case}.gif"
             for case in STUDIES["ballmill_animation"].space.instance_patterns
         ),
+    ]
+
+
+def all_targets():
+    return [
+        *ballmill_targets(),
         *(target for targets in SCENE_TARGETS for target in targets()),
     ]

@@ -119,3 +119,13 @@ def single_particle_targets():
 
 
 SCENE_TARGETS.append(single_particle_targets)
+
+
+# `snakemake --cores 2 single_particle`: this scene's part of `rule all` alone.
+localrules:
+    single_particle,
+
+
+rule single_particle:
+    input:
+        single_particle_targets(),

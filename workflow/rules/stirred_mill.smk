@@ -196,3 +196,13 @@ if STIRRED:
 
 
 SCENE_TARGETS.append(stirred_mill_targets)
+
+
+# `snakemake --cores 2 stirred_mill`: this scene's part of `rule all` alone.
+localrules:
+    stirred_mill,
+
+
+rule stirred_mill:
+    input:
+        stirred_mill_targets(),
