@@ -199,3 +199,20 @@ def test_one_scene_target_plans_that_scene_only(workdir, scene, own, other):
     planned = {str(Path(f)) for f in updated}
     assert own in planned
     assert not [f for f in planned if other in f]
+
+
+def test_slurm_profile_sizes_every_simulate_rule():
+    """SLURM as written: every case rule gets threads and a wall-time limit (else the plugin's
+    30-minute default kills the seed-scale cases), threads fit a 2-CPU node, the status check
+    does not need an accounting database."""
+    profile = yaml.safe_load((ROOT / "profiles" / "slurm" / "profile.yaml").read_text())
+    text = "\n".join(p.read_text() for p in (ROOT / "workflow" / "rules").glob("*.smk"))
+    simulate = set(re.findall(r"rule (simulate_\w+):", text))
+    simulate |= set(re.findall(r"use rule \w+ as (simulate_\w+)", text))
+    assert {"simulate_ballmill", "simulate_stirred_mill", "simulate_bed_impact"} <= simulate
+    assert simulate <= set(profile["set-threads"])
+    assert all(1 <= n <= 2 for n in profile["set-threads"].values())
+    limits = profile["set-resources"]
+    assert all(limits[rule]["runtime"] > profile["default-resources"]["runtime"]
+               for rule in simulate)
+    assert profile["slurm-status-command"] == "squeue"
