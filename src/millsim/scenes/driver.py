@@ -116,7 +116,9 @@ class Progress:
         self.last = -math.inf
 
     def begin(self, n_particles):
-        self._say(f"{self.name}: {n_particles} particles; compiling the step loop on first use")
+        # (numba caches the compiled loop on disk: later runs load it in about a second)
+        self._say(f"{self.name}: {n_particles} particles; compiling the step loop "
+                  "(first run of this physics on this machine only, ~20-60 s)")
 
     def update(self, fraction, note, steps, n_particles):
         now = time.perf_counter()
