@@ -26,8 +26,10 @@ block (exact for an isolated pair), started at lam = 0. Then, for any number of 
   so the kinetic energy after the impulse is at most that of v_f minus lam.C lam / 2 (plus the
   work of moving walls and kinematic bodies, whose velocities enter J v_f).
 
-Record layout (per slot in the loop's slot record, per particle and wall in ``Scratch.lub_rows``),
-``RW_*`` offsets; the 7-vectors are ordered (normal, slip x, y, z, roll x, y, z).
+Records (one per Verlet slot in ``Scratch.lub_slots``, one per particle and wall in
+``Scratch.lub_rows``), ``RW_*`` offsets; the 7-vectors are ordered (normal, slip x, y, z, roll x,
+y, z). They are kept apart from the slot record of the contacts and as narrow as the solve allows
+(q = (C + W) p is recomputed rather than stored): the passes are bound by memory traffic.
 """
 
 from numba import njit
@@ -36,40 +38,42 @@ RW_ACT = 0  # 1: the row exists this step (gap below h_max), 0: none
 RW_N = 1  # unit normal from j (or the wall) to i (3)
 RW_K = 4  # k_n [N s/m], k_s [N s/m], k_r [N m s]; after setup the compliances 1/(tau k)
 RW_B = 7  # b_i, b_j [m]: slip lever coefficients (Y11B/Y11A, Y21B/Y11A; wall: YB/YA, -YB/YA)
-RW_VJ = 9  # partner velocity (3) and spin (3): a wall's rigid motion at the sphere; 0 for pairs
-RW_D = 15  # preconditioner: 1/(c_n + W_nn), inverse of the 2 x 2 tangential block (3)
-RW_LAM = 19  # impulses (7) [N s, N s (3), N m s (3)]
-RW_RES = 26  # residual J v_f - (C + W) lam (7)
-RW_DIR = 33  # search direction (7)
-RW_Q = 40  # (C + W) times the direction (7)
-RW_JM = 47  # J v at the start of the kick (7), for the energy audit
-RW_WIDTH = 54
+RW_D = 9  # preconditioner: 1/(c_n + W_nn), inverse of the 2 x 2 tangential block (3)
+RW_LAM = 13  # impulses (7) [N s, N s (3), N m s (3)]
+RW_RES = 20  # residual r = J v_f - (C + W) lam (7)
+RW_Z = 27  # preconditioned residual D^-1 r (7)
+RW_DIR = 34  # search direction (7)
+RW_JM = 41  # J v at the start of the kick (7), for the energy audit
+RW_WIDTH = 48  # a pair's record
+RW_VJ = 48  # walls: the partner's velocity (3) and spin (3), the wall's rigid motion at the sphere
+RW_WALL_WIDTH = 54
 NR = 7
-LP_FORCE, LP_VF, LP_U = 0, 6, 12  # Scratch.lub_particle: other loads (6), free velocity (6), M^-1 J^T p (6)
+# Scratch.lub_particle columns: the other loads (force, torque), the free velocity (v, w), and
+# u = M^-1 J^T p (translation, rotation)
+LP_FORCE, LP_VF, LP_U = 0, 6, 12
 LP_WIDTH = 18
 
 
 @njit(inline="always", cache=True)
-def row_write(o, c, n0, n1, n2, kn, ks, kr, bi, bj, u0, u1, u2, s0, s1, s2):
-    """A row record from its normal, resistances, slip levers and the partner's rigid motion."""
-    o[c + RW_ACT] = 1.0
-    o[c + RW_N], o[c + RW_N + 1], o[c + RW_N + 2] = n0, n1, n2
-    o[c + RW_K], o[c + RW_K + 1], o[c + RW_K + 2] = kn, ks, kr
-    o[c + RW_B], o[c + RW_B + 1] = bi, bj
-    o[c + RW_VJ], o[c + RW_VJ + 1], o[c + RW_VJ + 2] = u0, u1, u2
-    o[c + RW_VJ + 3], o[c + RW_VJ + 4], o[c + RW_VJ + 5] = s0, s1, s2
+def row_write(o, n0, n1, n2, kn, ks, kr, bi, bj):
+    """A row record from its normal, resistances and slip levers (a wall's record then gets the
+    wall's rigid motion at RW_VJ)."""
+    o[RW_ACT] = 1.0
+    o[RW_N], o[RW_N + 1], o[RW_N + 2] = n0, n1, n2
+    o[RW_K], o[RW_K + 1], o[RW_K + 2] = kn, ks, kr
+    o[RW_B], o[RW_B + 1] = bi, bj
 
 
 @njit(inline="always", cache=True)
-def row_setup(o, c, tau, mi, ii, mj, ij):
+def row_setup(o, tau, mi, ii, mj, ij):
     """Compliances 1/(tau k) and the inverse of the row block of C + W (inverse masses mi, mj and
     inverse inertias ii, ij; 0 for kinematic partners and walls). A tangential resistance of 0
     (its log clamped) leaves those rows out: their preconditioner is 0, so they stay 0."""
-    kn, ks, kr = o[c + RW_K], o[c + RW_K + 1], o[c + RW_K + 2]
-    bi, bj = o[c + RW_B], o[c + RW_B + 1]
+    kn, ks, kr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
+    bi, bj = o[RW_B], o[RW_B + 1]
     cn = 1.0 / (tau * kn)
-    o[c + RW_K] = cn
-    o[c + RW_D] = 1.0 / (cn + mi + mj)
+    o[RW_K] = cn
+    o[RW_D] = 1.0 / (cn + mi + mj)
     t00 = t01 = t11 = 0.0
     cs = cr = 0.0
     if ks > 0.0:
@@ -83,15 +87,15 @@ def row_setup(o, c, tau, mi, ii, mj, ij):
             t00, t01, t11 = d / det, -b / det, a / det
         else:
             t00 = 1.0 / a
-    o[c + RW_K + 1], o[c + RW_K + 2] = cs, cr
-    o[c + RW_D + 1], o[c + RW_D + 2], o[c + RW_D + 3] = t00, t01, t11
+    o[RW_K + 1], o[RW_K + 2] = cs, cr
+    o[RW_D + 1], o[RW_D + 2], o[RW_D + 3] = t00, t01, t11
 
 
 @njit(inline="always", cache=True)
-def row_jv(o, c, vi0, vi1, vi2, wi0, wi1, wi2, vj0, vj1, vj2, wj0, wj1, wj2):
+def row_jv(o, vi0, vi1, vi2, wi0, wi1, wi2, vj0, vj1, vj2, wj0, wj1, wj2):
     """The 7 row velocities J V of (v_i, w_i, v_j, w_j)."""
-    n0, n1, n2 = o[c + RW_N], o[c + RW_N + 1], o[c + RW_N + 2]
-    bi, bj = o[c + RW_B], o[c + RW_B + 1]
+    n0, n1, n2 = o[RW_N], o[RW_N + 1], o[RW_N + 2]
+    bi, bj = o[RW_B], o[RW_B + 1]
     d0, d1, d2 = vi0 - vj0, vi1 - vj1, vi2 - vj2
     vn = d0 * n0 + d1 * n1 + d2 * n2
     s0 = wi1 * n2 - wi2 * n1  # w_i x n
@@ -107,10 +111,10 @@ def row_jv(o, c, vi0, vi1, vi2, wi0, wi1, wi2, vj0, vj1, vj2, wj0, wj1, wj2):
 
 
 @njit(inline="always", cache=True)
-def row_jt(o, c, l0, l1, l2, l3, l4, l5, l6):
+def row_jt(o, l0, l1, l2, l3, l4, l5, l6):
     """J^T of the row impulses (l0 normal, l1-3 slip, l4-6 roll): (F_i, T_i, T_j); F_j = -F_i."""
-    n0, n1, n2 = o[c + RW_N], o[c + RW_N + 1], o[c + RW_N + 2]
-    bi, bj = o[c + RW_B], o[c + RW_B + 1]
+    n0, n1, n2 = o[RW_N], o[RW_N + 1], o[RW_N + 2]
+    bi, bj = o[RW_B], o[RW_B + 1]
     m0 = n1 * l3 - n2 * l2  # n x slip
     m1 = n2 * l1 - n0 * l3
     m2 = n0 * l2 - n1 * l1
@@ -123,89 +127,81 @@ def row_jt(o, c, l0, l1, l2, l3, l4, l5, l6):
 
 
 @njit(inline="always", cache=True)
-def row_prec(o, c, r0, r1, r2, r3, r4, r5, r6):
-    """The row block's inverse applied to a residual (the preconditioner)."""
-    dn, t00, t01, t11 = o[c + RW_D], o[c + RW_D + 1], o[c + RW_D + 2], o[c + RW_D + 3]
-    return (dn * r0, t00 * r1 + t01 * r4, t00 * r2 + t01 * r5, t00 * r3 + t01 * r6,
-            t01 * r1 + t11 * r4, t01 * r2 + t11 * r5, t01 * r3 + t11 * r6)
+def row_precondition(o):
+    """z = D^-1 r stored; returns r.z."""
+    dn, t00, t01, t11 = o[RW_D], o[RW_D + 1], o[RW_D + 2], o[RW_D + 3]
+    rho = dn * o[RW_RES] * o[RW_RES]
+    o[RW_Z] = dn * o[RW_RES]
+    for a in range(1, 4):  # slip a, roll a + 3 (one 2 x 2 block per direction)
+        rs, rr = o[RW_RES + a], o[RW_RES + a + 3]
+        zs, zr = t00 * rs + t01 * rr, t01 * rs + t11 * rr
+        o[RW_Z + a], o[RW_Z + a + 3] = zs, zr
+        rho += rs * zs + rr * zr
+    return rho
 
 
 @njit(inline="always", cache=True)
-def row_c(o, c, k):
-    """Compliance of component k (0 normal, 1-3 slip, 4-6 roll), after setup."""
-    return o[c + RW_K + (0 if k == 0 else (1 if k < 4 else 2))]
-
-
-@njit(inline="always", cache=True)
-def row_start(o, c, b0, b1, b2, b3, b4, b5, b6):
+def row_start(o, b0, b1, b2, b3, b4, b5, b6):
     """lam = 0, residual = b = J v_f, direction 0; returns r.D^-1 r."""
-    z = row_prec(o, c, b0, b1, b2, b3, b4, b5, b6)
-    b = (b0, b1, b2, b3, b4, b5, b6)
-    rho = 0.0
+    o[RW_RES], o[RW_RES + 1], o[RW_RES + 2], o[RW_RES + 3] = b0, b1, b2, b3
+    o[RW_RES + 4], o[RW_RES + 5], o[RW_RES + 6] = b4, b5, b6
     for k in range(NR):
-        o[c + RW_LAM + k] = 0.0
-        o[c + RW_RES + k] = b[k]
-        o[c + RW_DIR + k] = 0.0
-        rho += b[k] * z[k]
-    return rho
+        o[RW_LAM + k] = 0.0
+        o[RW_DIR + k] = 0.0
+    return row_precondition(o)
 
 
 @njit(inline="always", cache=True)
-def row_direction(o, c, beta):
-    """The new search direction D^-1 r + beta p (not stored)."""
-    z = row_prec(o, c, o[c + RW_RES], o[c + RW_RES + 1], o[c + RW_RES + 2], o[c + RW_RES + 3],
-                 o[c + RW_RES + 4], o[c + RW_RES + 5], o[c + RW_RES + 6])
-    return (z[0] + beta * o[c + RW_DIR], z[1] + beta * o[c + RW_DIR + 1],
-            z[2] + beta * o[c + RW_DIR + 2], z[3] + beta * o[c + RW_DIR + 3],
-            z[4] + beta * o[c + RW_DIR + 4], z[5] + beta * o[c + RW_DIR + 5],
-            z[6] + beta * o[c + RW_DIR + 6])
+def row_direction(o, beta):
+    """The new search direction z + beta p (not stored)."""
+    return (o[RW_Z] + beta * o[RW_DIR], o[RW_Z + 1] + beta * o[RW_DIR + 1],
+            o[RW_Z + 2] + beta * o[RW_DIR + 2], o[RW_Z + 3] + beta * o[RW_DIR + 3],
+            o[RW_Z + 4] + beta * o[RW_DIR + 4], o[RW_Z + 5] + beta * o[RW_DIR + 5],
+            o[RW_Z + 6] + beta * o[RW_DIR + 6])
 
 
 @njit(inline="always", cache=True)
-def row_store_q(o, c, p, ju):
-    """Store the direction p and q = C p + J u; returns p.q."""
-    pq = 0.0
-    for k in range(NR):
-        o[c + RW_DIR + k] = p[k]
-        q = row_c(o, c, k) * p[k] + ju[k]
-        o[c + RW_Q + k] = q
-        pq += p[k] * q
-    return pq
+def row_cpp(o, p0, p1, p2, p3, p4, p5, p6):
+    """p.C p of the row."""
+    return (o[RW_K] * p0 * p0 + o[RW_K + 1] * (p1 * p1 + p2 * p2 + p3 * p3)
+            + o[RW_K + 2] * (p4 * p4 + p5 * p5 + p6 * p6))
 
 
 @njit(inline="always", cache=True)
-def row_advance(o, c, alpha):
-    """lam += alpha p, r -= alpha q; returns the new r.D^-1 r."""
+def row_advance(o, beta, alpha, j0, j1, j2, j3, j4, j5, j6):
+    """The new direction p = z + beta p (stored), lam += alpha p, r -= alpha (C p + J u) with
+    J u = (j0..j6), z = D^-1 r; returns the new r.z."""
+    cn, cs, cr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
+    p = row_direction(o, beta)
+    ju = (j0, j1, j2, j3, j4, j5, j6)
     for k in range(NR):
-        o[c + RW_LAM + k] += alpha * o[c + RW_DIR + k]
-        o[c + RW_RES + k] -= alpha * o[c + RW_Q + k]
-    r = (o[c + RW_RES], o[c + RW_RES + 1], o[c + RW_RES + 2], o[c + RW_RES + 3],
-         o[c + RW_RES + 4], o[c + RW_RES + 5], o[c + RW_RES + 6])
-    z = row_prec(o, c, r[0], r[1], r[2], r[3], r[4], r[5], r[6])
-    rho = 0.0
-    for k in range(NR):
-        rho += r[k] * z[k]
-    return rho
+        c = cn if k == 0 else (cs if k < 4 else cr)
+        o[RW_DIR + k] = p[k]
+        o[RW_LAM + k] += alpha * p[k]
+        o[RW_RES + k] -= alpha * (c * p[k] + ju[k])
+    return row_precondition(o)
 
 
 @njit(inline="always", cache=True)
-def row_impulse(o, c):
+def row_impulse(o):
     """J^T lam of the row: (F_i, T_i, T_j) impulses."""
-    return row_jt(o, c, o[c + RW_LAM], o[c + RW_LAM + 1], o[c + RW_LAM + 2], o[c + RW_LAM + 3],
-                  o[c + RW_LAM + 4], o[c + RW_LAM + 5], o[c + RW_LAM + 6])
+    return row_jt(o, o[RW_LAM], o[RW_LAM + 1], o[RW_LAM + 2], o[RW_LAM + 3], o[RW_LAM + 4],
+                  o[RW_LAM + 5], o[RW_LAM + 6])
 
 
 @njit(inline="always", cache=True)
-def row_power(o, c, tau, mix):
+def row_power(o, tau, mix):
     """Power the row's force dissipates at the step's time, normal and tangential [W]: lam/tau times
     J v there, v = (1 - mix) v_start + mix v_end of the kick: mix = 1/2 (leapfrog: the step's
     velocity is the mean of the half steps), 0 when priming (the kick starts at the state). After
     the solve J v_end = r + C lam (the residual's definition)."""
+    cn, cs, cr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
     pn = pt = 0.0
     for k in range(NR):
-        lam = o[c + RW_LAM + k]
-        jm = o[c + RW_JM + k]
-        jv = jm + mix * (o[c + RW_RES + k] + row_c(o, c, k) * lam - jm)
+        c = cn if k == 0 else (cs if k < 4 else cr)
+        lam = o[RW_LAM + k]
+        jm = o[RW_JM + k]
+        jv = jm + mix * (o[RW_RES + k] + c * lam - jm)
         if k == 0:
             pn = lam * jv / tau
         else:
@@ -213,16 +209,23 @@ def row_power(o, c, tau, mix):
     return pn, pt
 
 
+@njit(inline="always", cache=True)
+def pair_ju(o, LP, i, j):
+    """J u of a pair row, u = M^-1 J^T p of both particles (Scratch.lub_particle)."""
+    return row_jv(o, LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2], LP[i, LP_U + 3],
+                  LP[i, LP_U + 4], LP[i, LP_U + 5], LP[j, LP_U], LP[j, LP_U + 1],
+                  LP[j, LP_U + 2], LP[j, LP_U + 3], LP[j, LP_U + 4], LP[j, LP_U + 5])
+
+
 # ---- the passes (factories: the spec's options become the closure's constants) -----------------
 def lub_kernels(spec, layout, block):
-    """Block kernels of the solve: (setup_particles, setup_slots, p1, p2, p3).
+    """Block kernels of the solve: (setup_particles, setup_slots, p1, p3).
 
     Each works on the particles ``block`` * blk ... and their own slots (i of the pair), so every
     record has one writer and every partial sum one block: the result does not depend on the
     thread count.
     """
     GRAVITY, WALLS, AUDIT = spec.gravity, spec.walls, layout.audit
-    L = layout.slot_fluid
 
     def setup_particles(blk, back, tau, P, R, S):
         """Free velocity v_f = v_base + tau a (a: the other loads; v_base = v - back acc), the wall
@@ -231,28 +234,27 @@ def lub_kernels(spec, layout, block):
         LP, WR = S.lub_particle, S.lub_rows
         rho = 0.0
         for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
-            vb0, vb1, vb2 = v[i, 0], v[i, 1], v[i, 2]
-            wb0, wb1, wb2 = w[i, 0], w[i, 1], w[i, 2]
             if P.body[i] >= 0:  # prescribed: the kick does not change it
                 for a in range(3):
                     LP[i, LP_VF + a] = v[i, a]
                     LP[i, LP_VF + 3 + a] = w[i, a]
                 continue
-            vb0 -= back * acc[i, 0]
-            vb1 -= back * acc[i, 1]
-            vb2 -= back * acc[i, 2]
-            wb0 -= back * alpha[i, 0]
-            wb1 -= back * alpha[i, 1]
-            wb2 -= back * alpha[i, 2]
+            vb0 = v[i, 0] - back * acc[i, 0]
+            vb1 = v[i, 1] - back * acc[i, 1]
+            vb2 = v[i, 2] - back * acc[i, 2]
+            wb0 = w[i, 0] - back * alpha[i, 0]
+            wb1 = w[i, 1] - back * alpha[i, 1]
+            wb2 = w[i, 2] - back * alpha[i, 2]
             im, ii = P.inv_mass[i], P.inv_inertia[i]
-            a0, a1, a2 = LP[i, 0] * im, LP[i, 1] * im, LP[i, 2] * im
+            a0, a1, a2 = LP[i, LP_FORCE] * im, LP[i, LP_FORCE + 1] * im, LP[i, LP_FORCE + 2] * im
             if GRAVITY:
                 a0 += R.gravity[0]
                 a1 += R.gravity[1]
                 a2 += R.gravity[2]
             vf0, vf1, vf2 = vb0 + tau * a0, vb1 + tau * a1, vb2 + tau * a2
-            wf0, wf1 = wb0 + tau * LP[i, 3] * ii, wb1 + tau * LP[i, 4] * ii
-            wf2 = wb2 + tau * LP[i, 5] * ii
+            wf0 = wb0 + tau * LP[i, LP_FORCE + 3] * ii
+            wf1 = wb1 + tau * LP[i, LP_FORCE + 4] * ii
+            wf2 = wb2 + tau * LP[i, LP_FORCE + 5] * ii
             LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2] = vf0, vf1, vf2
             LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5] = wf0, wf1, wf2
             if WALLS:
@@ -260,13 +262,13 @@ def lub_kernels(spec, layout, block):
                     o = WR[i, iw]
                     if o[RW_ACT] == 0.0:
                         continue
-                    row_setup(o, 0, tau, im, ii, 0.0, 0.0)
+                    row_setup(o, tau, im, ii, 0.0, 0.0)
                     u0, u1, u2 = o[RW_VJ], o[RW_VJ + 1], o[RW_VJ + 2]
                     s0, s1, s2 = o[RW_VJ + 3], o[RW_VJ + 4], o[RW_VJ + 5]
-                    b = row_jv(o, 0, vf0, vf1, vf2, wf0, wf1, wf2, u0, u1, u2, s0, s1, s2)
-                    rho += row_start(o, 0, b[0], b[1], b[2], b[3], b[4], b[5], b[6])
+                    b = row_jv(o, vf0, vf1, vf2, wf0, wf1, wf2, u0, u1, u2, s0, s1, s2)
+                    rho += row_start(o, b[0], b[1], b[2], b[3], b[4], b[5], b[6])
                     if AUDIT:
-                        jm = row_jv(o, 0, vb0, vb1, vb2, wb0, wb1, wb2, u0, u1, u2, s0, s1, s2)
+                        jm = row_jv(o, vb0, vb1, vb2, wb0, wb1, wb2, u0, u1, u2, s0, s1, s2)
                         for k in range(NR):
                             o[RW_JM + k] = jm[k]
         S.cg_part[blk, 1] = rho
@@ -274,59 +276,62 @@ def lub_kernels(spec, layout, block):
     def setup_slots(blk, back, tau, P, C, S):
         """The pair rows' setup; partial r.D^-1 r added to cg_part[blk, 1]."""
         v, w, acc, alpha, body = P.v, P.w, P.acc, P.alpha, P.body
-        start, nbr, out, LP = C.start, C.nbr, S.out, S.lub_particle
+        start, nbr, rows, LP = C.start, C.nbr, S.lub_slots, S.lub_particle
         rho = 0.0
         for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
             for k in range(start[i], start[i + 1]):
-                o = out[k]
-                if o[L + RW_ACT] == 0.0:
+                o = rows[k]
+                if o[RW_ACT] == 0.0:
                     continue
                 j = nbr[k]
-                row_setup(o, L, tau, P.inv_mass[i], P.inv_inertia[i], P.inv_mass[j],
+                row_setup(o, tau, P.inv_mass[i], P.inv_inertia[i], P.inv_mass[j],
                           P.inv_inertia[j])
-                b = row_jv(o, L, LP[i, 6], LP[i, 7], LP[i, 8], LP[i, 9], LP[i, 10], LP[i, 11],
-                           LP[j, 6], LP[j, 7], LP[j, 8], LP[j, 9], LP[j, 10], LP[j, 11])
-                rho += row_start(o, L, b[0], b[1], b[2], b[3], b[4], b[5], b[6])
+                b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
+                           LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
+                           LP[j, LP_VF], LP[j, LP_VF + 1], LP[j, LP_VF + 2],
+                           LP[j, LP_VF + 3], LP[j, LP_VF + 4], LP[j, LP_VF + 5])
+                rho += row_start(o, b[0], b[1], b[2], b[3], b[4], b[5], b[6])
                 if AUDIT:
                     hi = 0.0 if body[i] >= 0 else back
                     hj = 0.0 if body[j] >= 0 else back
-                    jm = row_jv(o, L, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
+                    jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
                                 v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
                                 w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
                                 v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
                                 v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
                                 w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
                     for q in range(NR):
-                        o[L + RW_JM + q] = jm[q]
+                        o[RW_JM + q] = jm[q]
         S.cg_part[blk, 1] += rho
 
     def p1(blk, beta, P, C, S):
-        """u = M^-1 J^T p per free particle, p the new direction (computed from the rows, the
-        pair rows' owner stores it in p2); the wall rows' direction and q; partial p.q of the
-        walls into cg_part[blk, 0]."""
-        start, rev_start, rev_slot, out = C.start, C.rev_start, C.rev_slot, S.out
+        """u = M^-1 J^T p per free particle for the new direction p = D^-1 r + beta p (computed
+        from the rows; p3 stores it), and the block's part of p.(C + W) p = sum of p.C p over its
+        own rows + sum of (J^T p).u over its particles, into cg_part[blk, 0]."""
+        start, rev_start, rev_slot, rows = C.start, C.rev_start, C.rev_slot, S.lub_slots
         LP, WR = S.lub_particle, S.lub_rows
         pq = 0.0
         for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
-            if P.body[i] >= 0:
-                continue  # infinite mass: u = 0 (never written)
             F0 = F1 = F2 = T0 = T1 = T2 = 0.0
             for k in range(start[i], start[i + 1]):
-                o = out[k]
-                if o[L + RW_ACT] != 0.0:
-                    p = row_direction(o, L, beta)
-                    f = row_jt(o, L, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
+                o = rows[k]
+                if o[RW_ACT] != 0.0:
+                    p = row_direction(o, beta)
+                    pq += row_cpp(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
+                    f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                     F0 += f[0]
                     F1 += f[1]
                     F2 += f[2]
                     T0 += f[3]
                     T1 += f[4]
                     T2 += f[5]
+            if P.body[i] >= 0:
+                continue  # infinite mass: u = 0 (never written), no part in W
             for q in range(rev_start[i], rev_start[i + 1]):
-                o = out[rev_slot[q]]
-                if o[L + RW_ACT] != 0.0:
-                    p = row_direction(o, L, beta)
-                    f = row_jt(o, L, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
+                o = rows[rev_slot[q]]
+                if o[RW_ACT] != 0.0:
+                    p = row_direction(o, beta)
+                    f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                     F0 -= f[0]
                     F1 -= f[1]
                     F2 -= f[2]
@@ -337,10 +342,9 @@ def lub_kernels(spec, layout, block):
                 for iw in range(WR.shape[1]):
                     o = WR[i, iw]
                     if o[RW_ACT] != 0.0:
-                        p = row_direction(o, 0, beta)
-                        for k in range(NR):
-                            o[RW_DIR + k] = p[k]
-                        f = row_jt(o, 0, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
+                        p = row_direction(o, beta)
+                        pq += row_cpp(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
+                        f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                         F0 += f[0]
                         F1 += f[1]
                         F2 += f[2]
@@ -351,47 +355,30 @@ def lub_kernels(spec, layout, block):
             u0, u1, u2, s0, s1, s2 = F0 * im, F1 * im, F2 * im, T0 * ii, T1 * ii, T2 * ii
             LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2] = u0, u1, u2
             LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5] = s0, s1, s2
-            if WALLS:
-                for iw in range(WR.shape[1]):
-                    o = WR[i, iw]
-                    if o[RW_ACT] != 0.0:
-                        ju = row_jv(o, 0, u0, u1, u2, s0, s1, s2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-                        p = (o[RW_DIR], o[RW_DIR + 1], o[RW_DIR + 2], o[RW_DIR + 3],
-                             o[RW_DIR + 4], o[RW_DIR + 5], o[RW_DIR + 6])
-                        pq += row_store_q(o, 0, p, ju)
+            pq += F0 * u0 + F1 * u1 + F2 * u2 + T0 * s0 + T1 * s1 + T2 * s2
         S.cg_part[blk, 0] = pq
 
-    def p2(blk, beta, P, C, S):
-        """The pair rows: store the direction and q = C p + J u; partial p.q added."""
-        start, nbr, out, LP = C.start, C.nbr, S.out, S.lub_particle
-        pq = 0.0
-        for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
-            for k in range(start[i], start[i + 1]):
-                o = out[k]
-                if o[L + RW_ACT] == 0.0:
-                    continue
-                j = nbr[k]
-                p = row_direction(o, L, beta)
-                ju = row_jv(o, L, LP[i, 12], LP[i, 13], LP[i, 14], LP[i, 15], LP[i, 16],
-                            LP[i, 17], LP[j, 12], LP[j, 13], LP[j, 14], LP[j, 15], LP[j, 16],
-                            LP[j, 17])
-                pq += row_store_q(o, L, p, ju)
-        S.cg_part[blk, 0] += pq
-
-    def p3(blk, alpha, P, C, S):
-        """lam += alpha p, r -= alpha q on the block's rows; partial r.D^-1 r into cg_part[blk, 1]."""
-        start, out, WR = C.start, S.out, S.lub_rows
+    def p3(blk, beta, alpha, P, C, S):
+        """The new direction stored, lam += alpha p, r -= alpha q on the block's rows; partial
+        r.D^-1 r into cg_part[blk, 1]."""
+        start, nbr, rows, LP, WR = C.start, C.nbr, S.lub_slots, S.lub_particle, S.lub_rows
         rho = 0.0
         for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
             for k in range(start[i], start[i + 1]):
-                o = out[k]
-                if o[L + RW_ACT] != 0.0:
-                    rho += row_advance(o, L, alpha)
+                o = rows[k]
+                if o[RW_ACT] != 0.0:
+                    ju = pair_ju(o, LP, i, nbr[k])
+                    rho += row_advance(o, beta, alpha, ju[0], ju[1], ju[2], ju[3], ju[4], ju[5],
+                                       ju[6])
             if WALLS and P.body[i] < 0:
                 for iw in range(WR.shape[1]):
                     o = WR[i, iw]
                     if o[RW_ACT] != 0.0:
-                        rho += row_advance(o, 0, alpha)
+                        ju = row_jv(o, LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2],
+                                    LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5],
+                                    0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                        rho += row_advance(o, beta, alpha, ju[0], ju[1], ju[2], ju[3], ju[4],
+                                           ju[5], ju[6])
         S.cg_part[blk, 1] = rho
 
-    return setup_particles, setup_slots, p1, p2, p3
+    return setup_particles, setup_slots, p1, p3

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from .implicit import (LP_FORCE, LP_WIDTH, RW_ACT, RW_VJ, RW_WIDTH, lub_kernels, row_impulse,
-                       row_power)
+from .implicit import (LP_FORCE, LP_WIDTH, RW_ACT, RW_VJ, RW_WALL_WIDTH, RW_WIDTH, lub_kernels,
+                       row_impulse, row_power)
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from .kinematics import ROTATE, body_pose, wall_contact
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
@@ -72,12 +72,12 @@ class Layout:
         return self.spring + self.wall_model
 
     @property
-    def slot_fluid(self):  # lubrication torques on i and on j, or the implicit scheme's row record
+    def slot_fluid(self):  # lubrication torques on i and on j (explicit; implicit: Scratch.lub_slots)
         return SLOT_BASE + self.slot_model
 
     @property
     def slot_audit(self):
-        return self.slot_fluid + ((RW_WIDTH if self.implicit else 6) if self.fluid else 0)
+        return self.slot_fluid + (6 if self.fluid and not self.implicit else 0)
 
     @property
     def slot_width(self):
@@ -199,7 +199,9 @@ class _Parts:
             chunk's partial sums, flags and implicit-lubrication arrays."""
             slots = C.nbr.shape[0]
             return Scratch(np.empty((slots, SLOT)), np.empty((slots if ROLLING else 0, 2, 3)),
-                           wall_part, audit_part, stop, rebuild, lub_rows, lub_particle, cg_part)
+                           wall_part, audit_part, stop, rebuild,
+                           np.empty((slots if IMPLICIT else 0, RW_WIDTH)), lub_rows, lub_particle,
+                           cg_part)
 
         def moved_beyond(x, x_ref, half_skin2):
             for i in range(x.shape[0]):
@@ -221,7 +223,7 @@ class _Parts:
             audit_part = np.zeros((n_blocks if AUDIT else 0, N_AUDIT))
             # implicit lubrication: wall rows zeroed (rows of walls a particle never visits, body
             # particles', stay inactive), loads and velocities of the solve, its partial sums
-            lub_rows = np.zeros((n if IMPLICIT else 0, W.table.shape[0], RW_WIDTH))
+            lub_rows = np.zeros((n if IMPLICIT else 0, W.table.shape[0], RW_WALL_WIDTH))
             lub_particle = np.zeros((n if IMPLICIT else 0, LP_WIDTH))
             cg_part = np.zeros((n_blocks if IMPLICIT else 0, 2))
             S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle,
@@ -305,7 +307,7 @@ class _Parts:
         velocity v_f, and preconditioned CG solves (C + W) lam = J v_f from lam = 0 until
         r.D^-1 r <= tol^2 of its start or ``max_iterations``, with every sum over fixed blocks.
         """
-        setup_particles, setup_slots, p1, p2, p3 = self.lub_blocks
+        setup_particles, setup_slots, p1, p3 = self.lub_blocks
         finish_block = self.lub_finish_block
 
         # (One parallel loop per function: each pass reads what the one before wrote for other
@@ -322,13 +324,9 @@ class _Parts:
             for blk in prange(n_blocks):
                 p1(np.int64(blk), beta, P, C, S)
 
-        def pass2(n_blocks, beta, P, C, S):
+        def pass3(n_blocks, beta, alpha, P, C, S):
             for blk in prange(n_blocks):
-                p2(np.int64(blk), beta, P, C, S)
-
-        def pass3(n_blocks, alpha, P, C, S):
-            for blk in prange(n_blocks):
-                p3(np.int64(blk), alpha, P, C, S)
+                p3(np.int64(blk), beta, alpha, P, C, S)
 
         def finish_pass(n_blocks, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
             for blk in prange(n_blocks):
@@ -337,7 +335,7 @@ class _Parts:
 
         setup_particle_pass = self._parallel(setup_particle_pass)
         setup_slot_pass = self._parallel(setup_slot_pass)
-        pass1, pass2, pass3 = self._parallel(pass1), self._parallel(pass2), self._parallel(pass3)
+        pass1, pass3 = self._parallel(pass1), self._parallel(pass3)
         finish_pass = self._parallel(finish_pass)
 
         def block_sum(part, col):
@@ -356,11 +354,10 @@ class _Parts:
             beta = 0.0
             while rho > stop_at and iterations < fp[4]:
                 pass1(n_blocks, beta, P, C, S)
-                pass2(n_blocks, beta, P, C, S)
                 pq = block_sum(part, 0)
                 if not pq > 0.0:  # rounding at convergence: nothing left to reduce
                     break
-                pass3(n_blocks, rho / pq, P, C, S)
+                pass3(n_blocks, beta, rho / pq, P, C, S)
                 rho_new = block_sum(part, 1)
                 beta = rho_new / rho
                 rho = rho_new
@@ -417,7 +414,8 @@ def _pair_block_kernel(pair_row):
         """Pair pass for the slots of the block's particles."""
         start, nbr, state, out, proll, stop = C.start, C.nbr, C.state, S.out, S.proll, S.stop
         for i in range(blk * BLOCK, min(P.x.shape[0], (blk + 1) * BLOCK)):
-            pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop)
+            pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop,
+                     S.lub_slots)
 
     return pair_block
 
@@ -425,6 +423,7 @@ def _pair_block_kernel(pair_row):
 def _pair_row_kernel(spec, law, brk, flu, layout, contact):
     """Pair pass for the slots of particle i."""
     PERIODIC, ROLLING, AUDIT = spec.periodic, spec.rolling_friction, layout.audit
+    IMPLICIT = layout.implicit
     SPRING = law.spring_columns
     SLOT, COL_BRK, COL_T = layout.slot_width, SLOT_BASE, layout.slot_fluid
     COL_AUD = layout.slot_audit
@@ -434,7 +433,7 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
     override, loaded = brk.pair_override, brk.pair_loaded
     pair_fluid = flu.pair_fluid
 
-    def pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop):
+    def pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop, rows):
         x, v, w, radius = P.x, P.v, P.w, P.radius
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
@@ -459,8 +458,12 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
                 if ROLLING:
                     proll[k, :, :] = 0.0
                 dist = math.sqrt(dist2)
-                pair_fluid(fp, o, COL_T, COL_D, radius[i], radius[j], d0 / dist, d1 / dist,
-                           d2 / dist, dist - rsum, v, w, i, j)
+                if IMPLICIT:  # the pair's row record for the solve
+                    pair_fluid(fp, rows[k], 0, -1, radius[i], radius[j], d0 / dist, d1 / dist,
+                               d2 / dist, dist - rsum, v, w, i, j)
+                else:
+                    pair_fluid(fp, o, COL_T, COL_D, radius[i], radius[j], d0 / dist, d1 / dist,
+                               d2 / dist, dist - rsum, v, w, i, j)
                 apart_hook(bs, state, k, BASE, o, COL_BRK, step, i, j, radius, P.body, rsum,
                            dist2, rsum - dist - xi_ref, stop)
                 continue
@@ -510,7 +513,10 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
                 o[COL_AUD] = -(fn - fn_el) * vn
                 o[COL_AUD + 1] = -(f0 * dv0 + f1 * dv1 + f2 * dv2)
                 o[COL_AUD + 2] = -(f0 * (vr0 - dv0) + f1 * (vr1 - dv1) + f2 * (vr2 - dv2))
-            pair_fluid(fp, o, COL_T, COL_D, ri, rj, n0, n1, n2, -xi, v, w, i, j)
+            if IMPLICIT:
+                pair_fluid(fp, rows[k], 0, -1, ri, rj, n0, n1, n2, -xi, v, w, i, j)
+            else:
+                pair_fluid(fp, o, COL_T, COL_D, ri, rj, n0, n1, n2, -xi, v, w, i, j)
             loaded(bs, state, k, BASE, o, COL_BRK, fn, xi_c, P.material[i], P.material[j])
             if ROLLING:
                 wi = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
@@ -747,13 +753,12 @@ def _lub_finish_kernel(spec, layout, finish):
     rows with their reaction on the wall), the audit of the rows' power, then the integrator and
     the skin check."""
     WALLS, AUDIT = spec.walls, layout.audit
-    L = layout.slot_fluid
 
     def lub_finish_block(blk, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
         prime = dt == 0.0  # the start state's loads: nothing advances (see run_chunk)
         mix = 0.0 if prime else 0.5  # the step's velocity: start of the kick, or its midpoint
         x, x_ref, body = P.x, P.x_ref, P.body
-        start, rev_start, rev_slot, out = C.start, C.rev_start, C.rev_slot, S.out
+        start, rev_start, rev_slot, out = C.start, C.rev_start, C.rev_slot, S.lub_slots
         lub, rows, wall_part, audit_part = S.lub_particle, S.lub_rows, S.wall_part, S.audit_part
         inv = 1.0 / tau  # impulse over the kick -> force
         for i in range(blk * BLOCK, min(x.shape[0], (blk + 1) * BLOCK)):
@@ -761,9 +766,9 @@ def _lub_finish_kernel(spec, layout, finish):
             T0, T1, T2 = lub[i, LP_FORCE + 3], lub[i, LP_FORCE + 4], lub[i, LP_FORCE + 5]
             for k in range(start[i], start[i + 1]):
                 o = out[k]
-                if o[L + RW_ACT] == 0.0:
+                if o[RW_ACT] == 0.0:
                     continue
-                f = row_impulse(o, L)  # the impulse on i is -J^T lam
+                f = row_impulse(o)  # the impulse on i is -J^T lam
                 F0 -= f[0] * inv
                 F1 -= f[1] * inv
                 F2 -= f[2] * inv
@@ -771,14 +776,14 @@ def _lub_finish_kernel(spec, layout, finish):
                 T1 -= f[4] * inv
                 T2 -= f[5] * inv
                 if AUDIT:
-                    pn, pt = row_power(o, L, tau, mix)
+                    pn, pt = row_power(o, tau, mix)
                     audit_part[blk, 3] += pn
                     audit_part[blk, 4] += pt
             for q in range(rev_start[i], rev_start[i + 1]):
                 o = out[rev_slot[q]]
-                if o[L + RW_ACT] == 0.0:
+                if o[RW_ACT] == 0.0:
                     continue
-                f = row_impulse(o, L)
+                f = row_impulse(o)
                 F0 += f[0] * inv
                 F1 += f[1] * inv
                 F2 += f[2] * inv
@@ -790,7 +795,7 @@ def _lub_finish_kernel(spec, layout, finish):
                     o = rows[i, iw]
                     if o[RW_ACT] == 0.0:
                         continue
-                    f = row_impulse(o, 0)
+                    f = row_impulse(o)
                     g0, g1, g2 = -f[0] * inv, -f[1] * inv, -f[2] * inv
                     c0, c1, c2 = -f[3] * inv, -f[4] * inv, -f[5] * inv
                     F0 += g0
@@ -813,7 +818,7 @@ def _lub_finish_kernel(spec, layout, finish):
                     wp[6] -= (g0 * o[RW_VJ] + g1 * o[RW_VJ + 1] + g2 * o[RW_VJ + 2]
                               + c0 * o[RW_VJ + 3] + c1 * o[RW_VJ + 4] + c2 * o[RW_VJ + 5])
                     if AUDIT:
-                        pn, pt = row_power(o, 0, tau, mix)
+                        pn, pt = row_power(o, tau, mix)
                         audit_part[blk, 3] += pn
                         audit_part[blk, 4] += pt
             finish(i, step, last, t, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..engine.implicit import RW_ACT, row_write
+from ..engine.implicit import RW_ACT, RW_VJ, row_write
 from ..engine.models import FluidKernels, ParticleModel, stable_identity
 from ..engine.timestep import StepBound, TimeStepError
 from .contact import FAST
@@ -535,13 +535,14 @@ def _kernel(fn):
 
 
 def _pair_rows(fp, o, col_t, col_d, ri, rj, n0, n1, n2, h, v, w, i, j):
-    """Implicit scheme: the rows of the pair (i, j) into o[col_t:] when the gap is below h_max (the
-    record is zeroed before, so no row otherwise). Cutoffs of the smaller diameter."""
+    """Implicit scheme: ``o`` is the pair's row record (engine.implicit; col_t, col_d unused):
+    written, or marked absent (RW_ACT = 0) from h_max on. Cutoffs of the smaller diameter."""
     d_min = 2.0 * min(ri, rj)
     if h >= fp[H_MAX] * d_min or not fp[ETA] > 0.0:
+        o[RW_ACT] = 0.0
         return
     kn, ks, kr, bi, bj = pair_rows(ri, rj, h, fp[H_MIN] * d_min, fp[ETA])
-    row_write(o, col_t, n0, n1, n2, kn, ks, kr, bi, bj, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    row_write(o, n0, n1, n2, kn, ks, kr, bi, bj)
 
 
 def _wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):
@@ -555,9 +556,11 @@ def _wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):
     cp1 = x[i, 1] - wall[2]
     cp2 = x[i, 2] - wall[3]
     kn, ks, kr, b = wall_rows(ri, -xi, fp[H_MIN] * 2.0 * ri, fp[ETA])
-    row_write(rec, 0, n0, n1, n2, kn, ks, kr, b, -b,
-              om * (wall[5] * cp2 - wall[6] * cp1), om * (wall[6] * cp0 - wall[4] * cp2),
-              om * (wall[4] * cp1 - wall[5] * cp0), om * wall[4], om * wall[5], om * wall[6])
+    row_write(rec, n0, n1, n2, kn, ks, kr, b, -b)
+    rec[RW_VJ] = om * (wall[5] * cp2 - wall[6] * cp1)
+    rec[RW_VJ + 1] = om * (wall[6] * cp0 - wall[4] * cp2)
+    rec[RW_VJ + 2] = om * (wall[4] * cp1 - wall[5] * cp0)
+    rec[RW_VJ + 3], rec[RW_VJ + 4], rec[RW_VJ + 5] = om * wall[4], om * wall[5], om * wall[6]
 
 
 def _no_wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):
