@@ -141,23 +141,63 @@ def row_precondition(o):
 
 
 @njit(inline="always", cache=True)
-def row_start(o, b0, b1, b2, b3, b4, b5, b6):
-    """lam = 0, residual = b = J v_f, direction 0; returns r.D^-1 r."""
-    o[RW_RES], o[RW_RES + 1], o[RW_RES + 2], o[RW_RES + 3] = b0, b1, b2, b3
-    o[RW_RES + 4], o[RW_RES + 5], o[RW_RES + 6] = b4, b5, b6
+def row_absent(o):
+    """No row this step; its impulses are forgotten (a later row starts cold)."""
+    if o[RW_ACT] != 0.0:
+        for k in range(NR):
+            o[RW_LAM + k] = 0.0
+    o[RW_ACT] = 0.0
+
+
+@njit(inline="always", cache=True)
+def row_begin(o, warm, b0, b1, b2, b3, b4, b5, b6, j0, j1, j2, j3, j4, j5, j6):
+    """Start the solve at the row: b = J v_f; lam kept from the last step (``warm``; J u = (j0..j6)
+    is J M^-1 J^T of those impulses) or 0, r = b - (C + W) lam, z = D^-1 r, and b kept in the
+    direction's place until the first iteration (which multiplies it by beta = 0). Returns
+    (r.z, b.D^-1 b, lam.(b + r)): the last is -2 f(lam), f the solve's objective."""
+    cn, cs, cr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
+    b = (b0, b1, b2, b3, b4, b5, b6)
+    ju = (j0, j1, j2, j3, j4, j5, j6)
+    fch = 0.0
+    for k in range(NR):
+        c = cn if k == 0 else (cs if k < 4 else cr)
+        o[RW_DIR + k] = b[k]
+        if warm:
+            lam = o[RW_LAM + k]
+            r = b[k] - c * lam - ju[k]
+            fch += lam * (b[k] + r)
+            o[RW_RES + k] = r
+        else:
+            o[RW_LAM + k] = 0.0
+            o[RW_RES + k] = b[k]
+    dn, t00, t01, t11 = o[RW_D], o[RW_D + 1], o[RW_D + 2], o[RW_D + 3]
+    bb = (dn * b0 * b0 + t00 * (b1 * b1 + b2 * b2 + b3 * b3)
+          + 2.0 * t01 * (b1 * b4 + b2 * b5 + b3 * b6) + t11 * (b4 * b4 + b5 * b5 + b6 * b6))
+    return row_precondition(o), bb, fch
+
+
+@njit(inline="always", cache=True)
+def row_restart(o):
+    """Back to lam = 0, r = b (kept in the direction's place by row_begin); returns r.z."""
     for k in range(NR):
         o[RW_LAM + k] = 0.0
-        o[RW_DIR + k] = 0.0
+        o[RW_RES + k] = o[RW_DIR + k]
     return row_precondition(o)
 
 
 @njit(inline="always", cache=True)
 def row_direction(o, beta):
     """The new search direction z + beta p (not stored)."""
-    return (o[RW_Z] + beta * o[RW_DIR], o[RW_Z + 1] + beta * o[RW_DIR + 1],
-            o[RW_Z + 2] + beta * o[RW_DIR + 2], o[RW_Z + 3] + beta * o[RW_DIR + 3],
-            o[RW_Z + 4] + beta * o[RW_DIR + 4], o[RW_Z + 5] + beta * o[RW_DIR + 5],
-            o[RW_Z + 6] + beta * o[RW_DIR + 6])
+    return row_combine(o, RW_Z, beta)
+
+
+@njit(inline="always", cache=True)
+def row_combine(o, a, beta):
+    """o[a:a+7] + beta * (the stored direction)."""
+    return (o[a] + beta * o[RW_DIR], o[a + 1] + beta * o[RW_DIR + 1],
+            o[a + 2] + beta * o[RW_DIR + 2], o[a + 3] + beta * o[RW_DIR + 3],
+            o[a + 4] + beta * o[RW_DIR + 4], o[a + 5] + beta * o[RW_DIR + 5],
+            o[a + 6] + beta * o[RW_DIR + 6])
 
 
 @njit(inline="always", cache=True)
@@ -219,7 +259,7 @@ def pair_ju(o, LP, i, j):
 
 # ---- the passes (factories: the spec's options become the closure's constants) -----------------
 def lub_kernels(spec, layout, block):
-    """Block kernels of the solve: (setup_particles, setup_slots, p1, p3).
+    """Block kernels of the solve: (setup_particles, p1, setup_slots, restart, p3).
 
     Each works on the particles ``block`` * blk ... and their own slots (i of the pair), so every
     record has one writer and every partial sum one block: the result does not depend on the
@@ -228,11 +268,10 @@ def lub_kernels(spec, layout, block):
     GRAVITY, WALLS, AUDIT = spec.gravity, spec.walls, layout.audit
 
     def setup_particles(blk, back, tau, P, R, S):
-        """Free velocity v_f = v_base + tau a (a: the other loads; v_base = v - back acc), the wall
-        rows' setup; partial r.D^-1 r of the walls into cg_part[blk, 1]."""
+        """Free velocity v_f = v_base + tau a (a: the other loads; v_base = v - back acc); the wall
+        rows' compliances and preconditioner."""
         v, w, acc, alpha = P.v, P.w, P.acc, P.alpha
         LP, WR = S.lub_particle, S.lub_rows
-        rho = 0.0
         for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
             if P.body[i] >= 0:  # prescribed: the kick does not change it
                 for a in range(3):
@@ -251,63 +290,28 @@ def lub_kernels(spec, layout, block):
                 a0 += R.gravity[0]
                 a1 += R.gravity[1]
                 a2 += R.gravity[2]
-            vf0, vf1, vf2 = vb0 + tau * a0, vb1 + tau * a1, vb2 + tau * a2
-            wf0 = wb0 + tau * LP[i, LP_FORCE + 3] * ii
-            wf1 = wb1 + tau * LP[i, LP_FORCE + 4] * ii
-            wf2 = wb2 + tau * LP[i, LP_FORCE + 5] * ii
-            LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2] = vf0, vf1, vf2
-            LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5] = wf0, wf1, wf2
+            LP[i, LP_VF], LP[i, LP_VF + 1] = vb0 + tau * a0, vb1 + tau * a1
+            LP[i, LP_VF + 2] = vb2 + tau * a2
+            LP[i, LP_VF + 3] = wb0 + tau * LP[i, LP_FORCE + 3] * ii
+            LP[i, LP_VF + 4] = wb1 + tau * LP[i, LP_FORCE + 4] * ii
+            LP[i, LP_VF + 5] = wb2 + tau * LP[i, LP_FORCE + 5] * ii
             if WALLS:
                 for iw in range(WR.shape[1]):
                     o = WR[i, iw]
                     if o[RW_ACT] == 0.0:
                         continue
                     row_setup(o, tau, im, ii, 0.0, 0.0)
-                    u0, u1, u2 = o[RW_VJ], o[RW_VJ + 1], o[RW_VJ + 2]
-                    s0, s1, s2 = o[RW_VJ + 3], o[RW_VJ + 4], o[RW_VJ + 5]
-                    b = row_jv(o, vf0, vf1, vf2, wf0, wf1, wf2, u0, u1, u2, s0, s1, s2)
-                    rho += row_start(o, b[0], b[1], b[2], b[3], b[4], b[5], b[6])
                     if AUDIT:
-                        jm = row_jv(o, vb0, vb1, vb2, wb0, wb1, wb2, u0, u1, u2, s0, s1, s2)
+                        jm = row_jv(o, vb0, vb1, vb2, wb0, wb1, wb2, o[RW_VJ], o[RW_VJ + 1],
+                                    o[RW_VJ + 2], o[RW_VJ + 3], o[RW_VJ + 4], o[RW_VJ + 5])
                         for k in range(NR):
                             o[RW_JM + k] = jm[k]
-        S.cg_part[blk, 1] = rho
 
-    def setup_slots(blk, back, tau, P, C, S):
-        """The pair rows' setup; partial r.D^-1 r added to cg_part[blk, 1]."""
-        v, w, acc, alpha, body = P.v, P.w, P.acc, P.alpha, P.body
-        start, nbr, rows, LP = C.start, C.nbr, S.lub_slots, S.lub_particle
-        rho = 0.0
-        for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
-            for k in range(start[i], start[i + 1]):
-                o = rows[k]
-                if o[RW_ACT] == 0.0:
-                    continue
-                j = nbr[k]
-                row_setup(o, tau, P.inv_mass[i], P.inv_inertia[i], P.inv_mass[j],
-                          P.inv_inertia[j])
-                b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
-                           LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
-                           LP[j, LP_VF], LP[j, LP_VF + 1], LP[j, LP_VF + 2],
-                           LP[j, LP_VF + 3], LP[j, LP_VF + 4], LP[j, LP_VF + 5])
-                rho += row_start(o, b[0], b[1], b[2], b[3], b[4], b[5], b[6])
-                if AUDIT:
-                    hi = 0.0 if body[i] >= 0 else back
-                    hj = 0.0 if body[j] >= 0 else back
-                    jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
-                                v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
-                                w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
-                                v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
-                                v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
-                                w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
-                    for q in range(NR):
-                        o[RW_JM + q] = jm[q]
-        S.cg_part[blk, 1] += rho
-
-    def p1(blk, beta, P, C, S):
-        """u = M^-1 J^T p per free particle for the new direction p = D^-1 r + beta p (computed
-        from the rows; p3 stores it), and the block's part of p.(C + W) p = sum of p.C p over its
-        own rows + sum of (J^T p).u over its particles, into cg_part[blk, 0]."""
+    def p1(blk, beta, a, P, C, S):
+        """u = M^-1 J^T p per free particle for p = o[a:a+7] + beta (stored direction) of every
+        row: the new direction z + beta p (a = RW_Z; p3 stores it), or the impulses kept from the
+        last step (a = RW_LAM, beta = 0); and the block's part of p.(C + W) p = sum of p.C p over
+        its own rows + sum of (J^T p).u over its particles, into cg_part[blk, 0]."""
         start, rev_start, rev_slot, rows = C.start, C.rev_start, C.rev_slot, S.lub_slots
         LP, WR = S.lub_particle, S.lub_rows
         pq = 0.0
@@ -316,7 +320,7 @@ def lub_kernels(spec, layout, block):
             for k in range(start[i], start[i + 1]):
                 o = rows[k]
                 if o[RW_ACT] != 0.0:
-                    p = row_direction(o, beta)
+                    p = row_combine(o, a, beta)
                     pq += row_cpp(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                     f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                     F0 += f[0]
@@ -330,7 +334,7 @@ def lub_kernels(spec, layout, block):
             for q in range(rev_start[i], rev_start[i + 1]):
                 o = rows[rev_slot[q]]
                 if o[RW_ACT] != 0.0:
-                    p = row_direction(o, beta)
+                    p = row_combine(o, a, beta)
                     f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                     F0 -= f[0]
                     F1 -= f[1]
@@ -342,7 +346,7 @@ def lub_kernels(spec, layout, block):
                 for iw in range(WR.shape[1]):
                     o = WR[i, iw]
                     if o[RW_ACT] != 0.0:
-                        p = row_direction(o, beta)
+                        p = row_combine(o, a, beta)
                         pq += row_cpp(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                         f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                         F0 += f[0]
@@ -357,6 +361,78 @@ def lub_kernels(spec, layout, block):
             LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5] = s0, s1, s2
             pq += F0 * u0 + F1 * u1 + F2 * u2 + T0 * s0 + T1 * s1 + T2 * s2
         S.cg_part[blk, 0] = pq
+
+    def setup_slots(blk, back, tau, warm, P, C, S):
+        """Start the solve at every row of the block (pairs it owns, its particles' walls):
+        b = J v_f, r = b - (C + W) lam (lam kept from the last step when ``warm``; u = M^-1 J^T lam
+        from p1), z; partials lam.(b + r), r.z and b.D^-1 b into cg_part[blk, 0:3]."""
+        v, w, acc, alpha, body = P.v, P.w, P.acc, P.alpha, P.body
+        start, nbr, rows, LP, WR = C.start, C.nbr, S.lub_slots, S.lub_particle, S.lub_rows
+        rho = bb = fch = 0.0
+        for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
+            for k in range(start[i], start[i + 1]):
+                o = rows[k]
+                if o[RW_ACT] == 0.0:
+                    continue
+                j = nbr[k]
+                row_setup(o, tau, P.inv_mass[i], P.inv_inertia[i], P.inv_mass[j],
+                          P.inv_inertia[j])
+                b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
+                           LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
+                           LP[j, LP_VF], LP[j, LP_VF + 1], LP[j, LP_VF + 2],
+                           LP[j, LP_VF + 3], LP[j, LP_VF + 4], LP[j, LP_VF + 5])
+                ju = pair_ju(o, LP, i, j)
+                r = row_begin(o, warm, b[0], b[1], b[2], b[3], b[4], b[5], b[6],
+                              ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
+                rho += r[0]
+                bb += r[1]
+                fch += r[2]
+                if AUDIT:
+                    hi = 0.0 if body[i] >= 0 else back
+                    hj = 0.0 if body[j] >= 0 else back
+                    jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
+                                v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
+                                w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
+                                v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
+                                v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
+                                w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
+                    for q in range(NR):
+                        o[RW_JM + q] = jm[q]
+            if WALLS and body[i] < 0:
+                for iw in range(WR.shape[1]):
+                    o = WR[i, iw]
+                    if o[RW_ACT] == 0.0:
+                        continue
+                    b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
+                               LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
+                               o[RW_VJ], o[RW_VJ + 1], o[RW_VJ + 2], o[RW_VJ + 3], o[RW_VJ + 4],
+                               o[RW_VJ + 5])
+                    ju = row_jv(o, LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2],
+                                LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5],
+                                0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                    r = row_begin(o, warm, b[0], b[1], b[2], b[3], b[4], b[5], b[6],
+                                  ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
+                    rho += r[0]
+                    bb += r[1]
+                    fch += r[2]
+        S.cg_part[blk, 0] = fch
+        S.cg_part[blk, 1] = rho
+        S.cg_part[blk, 2] = bb
+
+    def restart(blk, P, C, S):
+        """Every row of the block back to lam = 0 (the kept impulses would not lower the
+        objective); partial r.z into cg_part[blk, 1]."""
+        start, rows, WR = C.start, S.lub_slots, S.lub_rows
+        rho = 0.0
+        for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
+            for k in range(start[i], start[i + 1]):
+                if rows[k, RW_ACT] != 0.0:
+                    rho += row_restart(rows[k])
+            if WALLS and P.body[i] < 0:
+                for iw in range(WR.shape[1]):
+                    if WR[i, iw, RW_ACT] != 0.0:
+                        rho += row_restart(WR[i, iw])
+        S.cg_part[blk, 1] = rho
 
     def p3(blk, beta, alpha, P, C, S):
         """The new direction stored, lam += alpha p, r -= alpha q on the block's rows; partial
@@ -381,4 +457,4 @@ def lub_kernels(spec, layout, block):
                                            ju[5], ju[6])
         S.cg_part[blk, 1] = rho
 
-    return setup_particles, setup_slots, p1, p3
+    return setup_particles, p1, setup_slots, restart, p3

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from .implicit import (LP_FORCE, LP_WIDTH, RW_ACT, RW_VJ, RW_WALL_WIDTH, RW_WIDTH, lub_kernels,
-                       row_impulse, row_power)
+from .implicit import (LP_FORCE, LP_WIDTH, RW_ACT, RW_LAM, RW_VJ, RW_WALL_WIDTH, RW_WIDTH, RW_Z,
+                       lub_kernels, row_absent, row_impulse, row_power)
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from .kinematics import ROTATE, body_pose, wall_contact
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
@@ -200,7 +200,7 @@ class _Parts:
             slots = C.nbr.shape[0]
             return Scratch(np.empty((slots, SLOT)), np.empty((slots if ROLLING else 0, 2, 3)),
                            wall_part, audit_part, stop, rebuild,
-                           np.empty((slots if IMPLICIT else 0, RW_WIDTH)), lub_rows, lub_particle,
+                           np.zeros((slots if IMPLICIT else 0, RW_WIDTH)), lub_rows, lub_particle,
                            cg_part)
 
         def moved_beyond(x, x_ref, half_skin2):
@@ -225,7 +225,7 @@ class _Parts:
             # particles', stay inactive), loads and velocities of the solve, its partial sums
             lub_rows = np.zeros((n if IMPLICIT else 0, W.table.shape[0], RW_WALL_WIDTH))
             lub_particle = np.zeros((n if IMPLICIT else 0, LP_WIDTH))
-            cg_part = np.zeros((n_blocks if IMPLICIT else 0, 2))
+            cg_part = np.zeros((n_blocks if IMPLICIT else 0, 3))
             S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle,
                              cg_part)
             if prime:
@@ -238,7 +238,7 @@ class _Parts:
                 if IMPLICIT:
                     # the first kick starts at the state: half a step of lubrication, so that the
                     # first drift moves with the implicit half-step velocity (see lub_solve)
-                    lub_solve(n_blocks, 0.0, 0.5 * dt, P, C, R, S, fp, counters)
+                    lub_solve(n_blocks, 0.0, 0.5 * dt, False, P, C, R, S, fp, counters)
                     lub_finish_pass(n_blocks, np.int64(0), prime, t, 0.0, 0.5 * dt, P, C, W, B, R,
                                     err, S, half_skin2)
                 for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
@@ -257,6 +257,7 @@ class _Parts:
                                  cg_part)
                 counters[0] += 1
             steps_done = 0
+            warm = False  # implicit lubrication: impulses of the last step kept in the rows
             for step in range(n_steps):
                 pair_pass(n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
@@ -266,7 +267,8 @@ class _Parts:
                     # the kick needs the lubrication impulses first; a breakage decision of the
                     # particle pass is known here, so that step ends without the drift
                     last = last or stop[0] != 0
-                    lub_solve(n_blocks, 0.5 * dt, dt, P, C, R, S, fp, counters)
+                    lub_solve(n_blocks, 0.5 * dt, dt, warm, P, C, R, S, fp, counters)
+                    warm = True
                     lub_finish_pass(n_blocks, step, last, t, dt, dt, P, C, W, B, R, err, S,
                                     half_skin2)
                 elif stop[0] != 0 and not last:
@@ -288,6 +290,7 @@ class _Parts:
                     rebuild[0] = 0
                     S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows,
                                      lub_particle, cg_part)
+                    warm = False  # new rows (zeros)
                     counters[0] += 1
             counters[1] += steps_done
             return steps_done, C, events
@@ -304,10 +307,12 @@ class _Parts:
         ``lub_solve(n_blocks, back, tau, ...)``: the kick of length tau starts at v - back acc:
         the half-step velocity (v holds the prediction v + dt a of the last drift, back = dt/2),
         or the state itself when priming (back = 0, tau = dt/2); the other loads of the particle pass give the free
-        velocity v_f, and preconditioned CG solves (C + W) lam = J v_f from lam = 0 until
-        r.D^-1 r <= tol^2 of its start or ``max_iterations``, with every sum over fixed blocks.
+        velocity v_f, and preconditioned CG solves (C + W) lam = J v_f until r.D^-1 r <= tol^2
+        b.D^-1 b (b = J v_f) or ``max_iterations``, with every sum over fixed blocks. It starts
+        from the impulses of the last step (``warm``: no list rebuild since) where they lower the
+        objective below its value at 0, else from 0.
         """
-        setup_particles, setup_slots, p1, p3 = self.lub_blocks
+        setup_particles, p1, setup_slots, restart, p3 = self.lub_blocks
         finish_block = self.lub_finish_block
 
         # (One parallel loop per function: each pass reads what the one before wrote for other
@@ -316,13 +321,17 @@ class _Parts:
             for blk in prange(n_blocks):
                 setup_particles(np.int64(blk), back, tau, P, R, S)
 
-        def setup_slot_pass(n_blocks, back, tau, P, C, S):
+        def setup_slot_pass(n_blocks, back, tau, warm, P, C, S):
             for blk in prange(n_blocks):
-                setup_slots(np.int64(blk), back, tau, P, C, S)
+                setup_slots(np.int64(blk), back, tau, warm, P, C, S)
 
-        def pass1(n_blocks, beta, P, C, S):
+        def restart_pass(n_blocks, P, C, S):
             for blk in prange(n_blocks):
-                p1(np.int64(blk), beta, P, C, S)
+                restart(np.int64(blk), P, C, S)
+
+        def pass1(n_blocks, beta, a, P, C, S):
+            for blk in prange(n_blocks):
+                p1(np.int64(blk), beta, a, P, C, S)
 
         def pass3(n_blocks, beta, alpha, P, C, S):
             for blk in prange(n_blocks):
@@ -335,6 +344,7 @@ class _Parts:
 
         setup_particle_pass = self._parallel(setup_particle_pass)
         setup_slot_pass = self._parallel(setup_slot_pass)
+        restart_pass = self._parallel(restart_pass)
         pass1, pass3 = self._parallel(pass1), self._parallel(pass3)
         finish_pass = self._parallel(finish_pass)
 
@@ -344,16 +354,23 @@ class _Parts:
                 total += part[blk, col]
             return total
 
-        def lub_solve(n_blocks, back, tau, P, C, R, S, fp, counters):
+        def lub_solve(n_blocks, back, tau, warm, P, C, R, S, fp, counters):
             setup_particle_pass(n_blocks, back, tau, P, R, S)
-            setup_slot_pass(n_blocks, back, tau, P, C, S)
+            if warm:  # u = M^-1 J^T lam of the impulses kept from the last step
+                pass1(n_blocks, 0.0, RW_LAM, P, C, S)
+            setup_slot_pass(n_blocks, back, tau, warm, P, C, S)
             part = S.cg_part
             rho = block_sum(part, 1)
-            stop_at = fp[3] * fp[3] * rho  # relative tolerance on r.D^-1 r
+            if warm and block_sum(part, 0) < 0.0:
+                # the kept impulses would raise the objective above f(0) = 0, where the energy
+                # argument starts: from 0 then
+                restart_pass(n_blocks, P, C, S)
+                rho = block_sum(part, 1)
+            stop_at = fp[3] * fp[3] * block_sum(part, 2)  # relative to b.D^-1 b, b = J v_f
             iterations = 0
             beta = 0.0
             while rho > stop_at and iterations < fp[4]:
-                pass1(n_blocks, beta, P, C, S)
+                pass1(n_blocks, beta, RW_Z, P, C, S)
                 pq = block_sum(part, 0)
                 if not pq > 0.0:  # rounding at convergence: nothing left to reduce
                     break
@@ -650,7 +667,7 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
             wall = W.table[iw]
             if wall[10] == 0.0:  # disabled
                 if IMPLICIT:
-                    S.lub_rows[i, iw, RW_ACT] = 0.0
+                    row_absent(S.lub_rows[i, iw])
                 continue
             xi, n0, n1, n2, u0, u1, u2 = wall_contact(wall, x[i, 0], x[i, 1], x[i, 2], ri)
             if IMPLICIT:  # the row for the solve (applied in _lub_finish_kernel)
