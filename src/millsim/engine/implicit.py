@@ -230,18 +230,18 @@ def row_impulse(o):
 
 
 @njit(inline="always", cache=True)
-def row_power(o, tau, mix):
-    """Power the row's force dissipates at the step's time, normal and tangential [W]: lam/tau times
-    J v there, v = (1 - mix) v_start + mix v_end of the kick: mix = 1/2 (leapfrog: the step's
-    velocity is the mean of the half steps), 0 when priming (the kick starts at the state). After
-    the solve J v_end = r + C lam (the residual's definition)."""
+def row_power(o, tau):
+    """Power of the row's force over the kick, normal and tangential [W]: lam/tau times J v at
+    the mean of the kick's start and end velocities. For a step that is the step's own velocity
+    (leapfrog), so the loop's trapezoid sums the work lam.J v exactly, step by step; for the
+    half kick of the start state (prime) it is the work of that half kick. After the solve
+    J v_end = r + C lam (the residual's definition)."""
     cn, cs, cr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
     pn = pt = 0.0
     for k in range(NR):
         c = cn if k == 0 else (cs if k < 4 else cr)
         lam = o[RW_LAM + k]
-        jm = o[RW_JM + k]
-        jv = jm + mix * (o[RW_RES + k] + c * lam - jm)
+        jv = 0.5 * (o[RW_JM + k] + o[RW_RES + k] + c * lam)
         if k == 0:
             pn = lam * jv / tau
         else:

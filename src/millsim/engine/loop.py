@@ -773,7 +773,6 @@ def _lub_finish_kernel(spec, layout, finish):
 
     def lub_finish_block(blk, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
         prime = dt == 0.0  # the start state's loads: nothing advances (see run_chunk)
-        mix = 0.0 if prime else 0.5  # the step's velocity: start of the kick, or its midpoint
         x, x_ref, body = P.x, P.x_ref, P.body
         start, rev_start, rev_slot, out = C.start, C.rev_start, C.rev_slot, S.lub_slots
         lub, rows, wall_part, audit_part = S.lub_particle, S.lub_rows, S.wall_part, S.audit_part
@@ -793,7 +792,7 @@ def _lub_finish_kernel(spec, layout, finish):
                 T1 -= f[4] * inv
                 T2 -= f[5] * inv
                 if AUDIT:
-                    pn, pt = row_power(o, tau, mix)
+                    pn, pt = row_power(o, tau)
                     audit_part[blk, 3] += pn
                     audit_part[blk, 4] += pt
             for q in range(rev_start[i], rev_start[i + 1]):
@@ -835,7 +834,7 @@ def _lub_finish_kernel(spec, layout, finish):
                     wp[6] -= (g0 * o[RW_VJ] + g1 * o[RW_VJ + 1] + g2 * o[RW_VJ + 2]
                               + c0 * o[RW_VJ + 3] + c1 * o[RW_VJ + 4] + c2 * o[RW_VJ + 5])
                     if AUDIT:
-                        pn, pt = row_power(o, tau, mix)
+                        pn, pt = row_power(o, tau)
                         audit_part[blk, 3] += pn
                         audit_part[blk, 4] += pt
             finish(i, step, last, t, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)
