@@ -32,6 +32,8 @@ y, z). They are kept apart from the slot record of the contacts and as narrow as
 (q = (C + W) p is recomputed rather than stored): the passes are bound by memory traffic.
 """
 
+import math
+
 from numba import njit
 
 RW_ACT = 0  # 1: the row exists this step (gap below h_max), 0: none
@@ -43,10 +45,11 @@ RW_LAM = 13  # impulses (7) [N s, N s (3), N m s (3)]
 RW_RES = 20  # residual r = J v_f - (C + W) lam (7)
 RW_Z = 27  # preconditioned residual D^-1 r (7)
 RW_DIR = 34  # search direction (7)
-RW_JM = 41  # J v at the start of the kick (7), for the energy audit
-RW_WIDTH = 48  # a pair's record
-RW_VJ = 48  # walls: the partner's velocity (3) and spin (3), the wall's rigid motion at the sphere
-RW_WALL_WIDTH = 54
+RW_JM = 41  # J v at the start of the kick (7)
+RW_PHI = 48  # (1 - theta)/theta of the normal, slip and roll rows (3)
+RW_WIDTH = 51  # a pair's record
+RW_VJ = 51  # walls: the partner's velocity (3) and spin (3), the wall's rigid motion at the sphere
+RW_WALL_WIDTH = 57
 NR = 7
 # Scratch.lub_particle columns: the other loads (force, torque), the free velocity (v, w), and
 # u = M^-1 J^T p (translation, rotation)
@@ -65,29 +68,51 @@ def row_write(o, n0, n1, n2, kn, ks, kr, bi, bj):
 
 
 @njit(inline="always", cache=True)
+def fitted_theta(z):
+    """theta of the theta-method that decays v' = -(z/tau) v exactly over tau (exponential
+    fitting, Liniger & Willoughby 1970): 1/(1 - e^-z) - 1/z, from 1/2 (z -> 0: trapezoidal) to
+    1 (z -> infinity: backward Euler). Series below z = 0.1 (the difference cancels there)."""
+    if z < 0.1:
+        z2 = z * z
+        return 0.5 + z * (1.0 / 12.0 - z2 * (1.0 / 720.0 - z2 / 30240.0))
+    return -1.0 / math.expm1(-z) - 1.0 / z
+
+
+@njit(inline="always", cache=True)
 def row_setup(o, tau, mi, ii, mj, ij):
-    """Compliances 1/(tau k) and the inverse of the row block of C + W (inverse masses mi, mj and
-    inverse inertias ii, ij; 0 for kinematic partners and walls). A tangential resistance of 0
-    (its log clamped) leaves those rows out: their preconditioner is 0, so they stay 0."""
+    """The implicit weights and compliances of the row, and the inverse of its block of C + W
+    (inverse masses mi, mj and inverse inertias ii, ij; 0 for kinematic partners and walls).
+
+    Each row's force acts at theta v+ + (1 - theta) v- (the kick's end and start), theta fitted
+    to the row's own relaxation z = tau k W_rr, so C = 1/(tau k theta) and the right-hand side
+    gains (1 - theta)/theta J v- (RW_PHI). A tangential resistance of 0 (its log clamped) leaves
+    those rows out: their preconditioner is 0, so they stay 0."""
     kn, ks, kr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
     bi, bj = o[RW_B], o[RW_B + 1]
-    cn = 1.0 / (tau * kn)
-    o[RW_K] = cn
-    o[RW_D] = 1.0 / (cn + mi + mj)
+    wn = mi + mj
+    th = fitted_theta(tau * kn * wn)
+    cn = 1.0 / (tau * kn * th)
+    o[RW_K], o[RW_PHI] = cn, (1.0 - th) / th
+    o[RW_D] = 1.0 / (cn + wn)
     t00 = t01 = t11 = 0.0
-    cs = cr = 0.0
+    cs = cr = phs = phr = 0.0
     if ks > 0.0:
-        cs = 1.0 / (tau * ks)
-        a = cs + mi + mj + bi * bi * ii + bj * bj * ij
+        ws = mi + mj + bi * bi * ii + bj * bj * ij
+        th = fitted_theta(tau * ks * ws)
+        cs, phs = 1.0 / (tau * ks * th), (1.0 - th) / th
+        a = cs + ws
         if kr > 0.0:
-            cr = 1.0 / (tau * kr)
+            wr = ii + ij
+            th = fitted_theta(tau * kr * wr)
+            cr, phr = 1.0 / (tau * kr * th), (1.0 - th) / th
             b = bi * ii - bj * ij
-            d = cr + ii + ij
+            d = cr + wr
             det = a * d - b * b
             t00, t01, t11 = d / det, -b / det, a / det
         else:
             t00 = 1.0 / a
     o[RW_K + 1], o[RW_K + 2] = cs, cr
+    o[RW_PHI + 1], o[RW_PHI + 2] = phs, phr
     o[RW_D + 1], o[RW_D + 2], o[RW_D + 3] = t00, t01, t11
 
 
@@ -150,12 +175,17 @@ def row_absent(o):
 
 
 @njit(inline="always", cache=True)
-def row_begin(o, warm, b0, b1, b2, b3, b4, b5, b6, j0, j1, j2, j3, j4, j5, j6):
-    """Start the solve at the row: b = J v_f; lam kept from the last step (``warm``; J u = (j0..j6)
-    is J M^-1 J^T of those impulses) or 0, r = b - (C + W) lam, z = D^-1 r, and b kept in the
-    direction's place until the first iteration (which multiplies it by beta = 0). Returns
-    (r.z, b.D^-1 b, lam.(b + r)): the last is -2 f(lam), f the solve's objective."""
+def row_begin(o, warm, f0, f1, f2, f3, f4, f5, f6, j0, j1, j2, j3, j4, j5, j6):
+    """Start the solve at the row: b = J v_f + (1 - theta)/theta J v- (f0..f6 = J v_f, J v- in
+    RW_JM); lam kept from the last step (``warm``; J u = (j0..j6) is J M^-1 J^T of those
+    impulses) or 0, r = b - (C + W) lam, z = D^-1 r, and b kept in the direction's place until
+    the first iteration (which multiplies it by beta = 0). Returns (r.z, b.D^-1 b, lam.(b + r)):
+    the last is -2 f(lam), f the solve's objective."""
     cn, cs, cr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
+    pn, ps, pr = o[RW_PHI], o[RW_PHI + 1], o[RW_PHI + 2]
+    b0 = f0 + pn * o[RW_JM]
+    b1, b2, b3 = f1 + ps * o[RW_JM + 1], f2 + ps * o[RW_JM + 2], f3 + ps * o[RW_JM + 3]
+    b4, b5, b6 = f4 + pr * o[RW_JM + 4], f5 + pr * o[RW_JM + 5], f6 + pr * o[RW_JM + 6]
     b = (b0, b1, b2, b3, b4, b5, b6)
     ju = (j0, j1, j2, j3, j4, j5, j6)
     fch = 0.0
@@ -235,18 +265,21 @@ def row_power(o, tau):
     the mean of the kick's start and end velocities. For a step that is the step's own velocity
     (leapfrog), so the loop's trapezoid sums the work lam.J v exactly, step by step; for the
     half kick of the start state (prime) it is the work of that half kick. After the solve
-    J v_end = r + C lam (the residual's definition)."""
+    J v_end = r + C lam - (1 - theta)/theta J v_start (the residual's definition)."""
     cn, cs, cr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
-    pn = pt = 0.0
+    pn, ps, pr = o[RW_PHI], o[RW_PHI + 1], o[RW_PHI + 2]
+    pwn = pwt = 0.0
     for k in range(NR):
         c = cn if k == 0 else (cs if k < 4 else cr)
+        ph = pn if k == 0 else (ps if k < 4 else pr)
         lam = o[RW_LAM + k]
-        jv = 0.5 * (o[RW_JM + k] + o[RW_RES + k] + c * lam)
+        jm = o[RW_JM + k]
+        jv = 0.5 * (jm + o[RW_RES + k] + c * lam - ph * jm)
         if k == 0:
-            pn = lam * jv / tau
+            pwn = lam * jv / tau
         else:
-            pt += lam * jv / tau
-    return pn, pt
+            pwt += lam * jv / tau
+    return pwn, pwt
 
 
 @njit(inline="always", cache=True)
@@ -265,7 +298,7 @@ def lub_kernels(spec, layout, block):
     record has one writer and every partial sum one block: the result does not depend on the
     thread count.
     """
-    GRAVITY, WALLS, AUDIT = spec.gravity, spec.walls, layout.audit
+    GRAVITY, WALLS = spec.gravity, spec.walls
 
     def setup_particles(blk, back, tau, P, R, S):
         """Free velocity v_f = v_base + tau a (a: the other loads; v_base = v - back acc); the wall
@@ -301,11 +334,10 @@ def lub_kernels(spec, layout, block):
                     if o[RW_ACT] == 0.0:
                         continue
                     row_setup(o, tau, im, ii, 0.0, 0.0)
-                    if AUDIT:
-                        jm = row_jv(o, vb0, vb1, vb2, wb0, wb1, wb2, o[RW_VJ], o[RW_VJ + 1],
-                                    o[RW_VJ + 2], o[RW_VJ + 3], o[RW_VJ + 4], o[RW_VJ + 5])
-                        for k in range(NR):
-                            o[RW_JM + k] = jm[k]
+                    jm = row_jv(o, vb0, vb1, vb2, wb0, wb1, wb2, o[RW_VJ], o[RW_VJ + 1],
+                                o[RW_VJ + 2], o[RW_VJ + 3], o[RW_VJ + 4], o[RW_VJ + 5])
+                    for k in range(NR):
+                        o[RW_JM + k] = jm[k]
 
     def p1(blk, beta, a, P, C, S):
         """u = M^-1 J^T p per free particle for p = o[a:a+7] + beta (stored direction) of every
@@ -381,23 +413,22 @@ def lub_kernels(spec, layout, block):
                            LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
                            LP[j, LP_VF], LP[j, LP_VF + 1], LP[j, LP_VF + 2],
                            LP[j, LP_VF + 3], LP[j, LP_VF + 4], LP[j, LP_VF + 5])
+                hi = 0.0 if body[i] >= 0 else back
+                hj = 0.0 if body[j] >= 0 else back
+                jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
+                            v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
+                            w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
+                            v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
+                            v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
+                            w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
+                for q in range(NR):
+                    o[RW_JM + q] = jm[q]
                 ju = pair_ju(o, LP, i, j)
                 r = row_begin(o, warm, b[0], b[1], b[2], b[3], b[4], b[5], b[6],
                               ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
                 rho += r[0]
                 bb += r[1]
                 fch += r[2]
-                if AUDIT:
-                    hi = 0.0 if body[i] >= 0 else back
-                    hj = 0.0 if body[j] >= 0 else back
-                    jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
-                                v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
-                                w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
-                                v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
-                                v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
-                                w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
-                    for q in range(NR):
-                        o[RW_JM + q] = jm[q]
             if WALLS and body[i] < 0:
                 for iw in range(WR.shape[1]):
                     o = WR[i, iw]

@@ -46,9 +46,9 @@ PI = math.pi
 INTEGRATORS = ("verlet", "verlet_half_step", "gear")
 SCHEMES = ("explicit", "implicit")
 # implicit scheme: relative tolerance on the preconditioned residual of the solve, and the most
-# iterations of one solve. On the quick stirred-mill slice (docs/lubrication.md) 1e-3 changed the
-# dissipation of 400 steps by 5e-5 (1 Pa s) and 2e-4 (10 Pa s) against 1e-7, 1e-2 by 3e-4 and
-# 4e-4, at 3.9 and 7.3 iterations per step.
+# iterations of one solve. On the quick stirred-mill slice 1e-3 changed the lubrication
+# dissipation of 400 steps by 1.2e-4 (1 Pa s) and 2.9e-4 (10 Pa s) against 1e-7, at 3.2 and 6.1
+# iterations per step (1e-2: 2e-5 and 1.2e-3 at 1.9 and 2.8; bench/lubrication_tolerance.py).
 TOLERANCE, MAX_ITERATIONS = 1e-3, 100
 # recommended dt = SAFETY * dt_stable. lubrication.md 4.5 suggests 0.5; the accuracy study
 # (docs/results/accuracy.md) measured the quick slice's net power at 0.1 Pa s 4.4 +- 1.6 % high
