@@ -61,8 +61,8 @@ def main(argv=None):
                 r = run_case(eta, seed, scheme, args.threads)
                 cases.append(r)
                 pair[scheme] = r
-                print(f"eta {eta:g} seed {seed} {scheme:8s} dt {r['dt']:.3g} s, {r['steps']} steps, "
-                      f"{r['compute_s']:.0f} s: net power {r['net_power']:.4g} +- "
+                print(f"eta {eta:g} seed {seed} {scheme:8s} dt {r['dt']:.3g} s, "
+                      f"{r['steps']} steps, {r['compute_s']:.0f} s: net power {r['net_power']:.4g} +- "
                       f"{r['net_power_ci']:.2g} W, balance {r['energy_balance_error']:+.2e}"
                       + (f", {r['iterations_per_step']:.2f} iterations/step"
                          if r["iterations_per_step"] is not None else ""), flush=True)

@@ -35,7 +35,8 @@ def main(argv=None):
                      sim.particles.v[sim.free].copy(), sim.counters[2] / args.steps)
     work0, diss0, v0, _ = runs[1e-7]
     for tol, (work, diss, v, iterations) in runs.items():
-        print(f"tolerance {tol:g}: {iterations:.2f} iterations/step, work {(work - work0) / work0:+.1e}, "
+        print(f"tolerance {tol:g}: {iterations:.2f} iterations/step, work "
+              f"{(work - work0) / work0:+.1e}, "
               f"lubrication dissipation {(diss - diss0) / diss0:+.1e}, velocities (rms) "
               f"{np.sqrt(((v - v0) ** 2).mean() / (v0 ** 2).mean()):.1e}")
 

@@ -334,7 +334,8 @@ def test_no_energy_injected_by_the_film(max_iterations):
     def observe(s):
         q, a = s.particles, s.energy_audit()
         half = kinetic(q.v + 0.5 * s.dt * q.acc, q.w + 0.5 * s.dt * q.alpha)
-        rows.append((kinetic(q.v, q.w), half, a["lubrication_normal"] + a["lubrication_tangential"]))
+        diss = a["lubrication_normal"] + a["lubrication_tangential"]
+        rows.append((kinetic(q.v, q.w), half, diss))
 
     sim.run(300, chunk=1, threads=1, observer=observe)
     ke, half, diss = np.array(rows).T

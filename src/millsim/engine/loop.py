@@ -72,7 +72,7 @@ class Layout:
         return self.spring + self.wall_model
 
     @property
-    def slot_fluid(self):  # lubrication torques on i and on j (explicit; implicit: Scratch.lub_slots)
+    def slot_fluid(self):  # explicit lubrication torques on i and j (implicit: Scratch.lub_slots)
         return SLOT_BASE + self.slot_model
 
     @property
@@ -304,13 +304,14 @@ class _Parts:
     def _lub_passes(self):
         """The implicit lubrication solve and the kick that applies it (engine.implicit).
 
-        ``lub_solve(n_blocks, back, tau, ...)``: the kick of length tau starts at v - back acc:
-        the half-step velocity (v holds the prediction v + dt a of the last drift, back = dt/2),
-        or the state itself when priming (back = 0, tau = dt/2); the other loads of the particle pass give the free
-        velocity v_f, and preconditioned CG solves (C + W) lam = J v_f until r.D^-1 r <= tol^2
-        b.D^-1 b (b = J v_f) or ``max_iterations``, with every sum over fixed blocks. It starts
-        from the impulses of the last step (``warm``: no list rebuild since) where they lower the
-        objective below its value at 0, else from 0.
+        ``lub_solve(n_blocks, back, tau, warm, ...)``: the kick of length tau starts at
+        v- = v - back acc: the half-step velocity (v holds the prediction v + dt a of the last
+        drift, back = dt/2), or the state itself when priming (back = 0, tau = dt/2). The other
+        loads of the particle pass give the free velocity v_f = v- + tau a, and preconditioned CG
+        solves (C + W) lam = b (engine.implicit: b = J v_f + (1 - theta)/theta J v-) until
+        r.D^-1 r <= tol^2 b.D^-1 b or ``max_iterations``, with every sum over fixed blocks. It
+        starts from the impulses of the last step (``warm``: no list rebuild since) where they
+        lower the objective below its value at 0, else from 0.
         """
         setup_particles, p1, setup_slots, restart, p3 = self.lub_blocks
         finish_block = self.lub_finish_block
