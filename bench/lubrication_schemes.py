@@ -62,7 +62,8 @@ def main(argv=None):
                 cases.append(r)
                 pair[scheme] = r
                 print(f"eta {eta:g} seed {seed} {scheme:8s} dt {r['dt']:.3g} s, "
-                      f"{r['steps']} steps, {r['compute_s']:.0f} s: net power {r['net_power']:.4g} +- "
+                      f"{r['steps']} steps, {r['compute_s']:.0f} s: net power "
+                      f"{r['net_power']:.4g} +- "
                       f"{r['net_power_ci']:.2g} W, balance {r['energy_balance_error']:+.2e}"
                       + (f", {r['iterations_per_step']:.2f} iterations/step"
                          if r["iterations_per_step"] is not None else ""), flush=True)
