@@ -45,6 +45,7 @@ PI = math.pi
 
 INTEGRATORS = ("verlet", "verlet_half_step", "gear")
 SCHEMES = ("explicit", "implicit")
+IMPLICIT_ADVICE = "Lubrication(scheme='implicit'); scene parameter lubrication_scheme=implicit"
 # implicit scheme: relative tolerance on the preconditioned residual of the solve, and the most
 # iterations of one solve. On the quick stirred-mill slice 1e-3 changed the lubrication
 # dissipation of 400 steps by 1.2e-4 (1 Pa s) and 2.9e-4 (10 Pa s) against 1e-7, at 3.2 and 6.1
@@ -414,8 +415,8 @@ class LubricationStepLimit:
         """Refusal text for a requested dt above dt_stable."""
         return (f"dt: {dt:.4g} s exceeds the stability limit {self.dt_stable:.4g} s of "
                 f"{self.describe()}; use dt <= {self.dt_recommended:.4g} s, or a larger h_min "
-                f"(dt_stable grows about linearly with h_min), or a lower viscosity; "
-                f"implicit lubrication is not implemented")
+                f"(dt_stable grows about linearly with h_min), or a lower viscosity, or the "
+                f"implicit scheme ({IMPLICIT_ADVICE})")
 
     def check(self, dt):
         """Return dt if dt <= dt_stable, else raise timestep.TimeStepError with :meth:`message`."""
@@ -429,7 +430,7 @@ class LubricationStepLimit:
         """The bound as a :class:`~millsim.engine.timestep.StepBound` (to add to a TimeStepReport)."""
         return StepBound("lubrication", self.describe(), self.dt_stable, self.dt_recommended,
                          advice=", or a larger h_min (dt_stable grows about linearly with h_min), "
-                                "or a lower viscosity; implicit lubrication is not implemented")
+                                f"or a lower viscosity, or the implicit scheme ({IMPLICIT_ADVICE})")
 
 
 def lubrication_dt_limit(eta, h_min, a_min, m_min, k_n, gamma_n, integrator="verlet"):
