@@ -308,7 +308,7 @@ def test_no_energy_injected_by_the_film(max_iterations):
     lubrication. Whatever the number of iterations:
 
     - the kick never raises the kinetic energy of the half-step velocities v + dt/2 a, checked
-      every step to rounding (proved for a theta common to all rows, where any iterate of the
+      every step to rounding (proved for backward Euler, theta = 1, where any iterate of the
       solve is a Galerkin projection started at an objective <= 0; the fitted per-row theta is
       checked here and in test_fitted_theta_kick_is_a_contraction);
     - the audited lubrication dissipation never falls;

@@ -11,20 +11,24 @@ form dissipates
 
 so its generalised force is -J^T K J V with J these 1 + 3 + 3 rows (the two tangential ones are
 vectors in the tangent plane). A wall is the same row with the wall as partner j (its velocity and
-spin at the sphere, infinite mass, b_j = -b_i). The loop integrates the resistance backward-Euler
-over the kick (``_runner`` in loop.py): with v_f the velocity the other forces alone would give,
+spin at the sphere, infinite mass, b_j = -b_i). The loop integrates the resistance over each kick
+of the leapfrog (``_lub_passes`` in loop.py), v- -> v+ of length tau, with v_f = v- + tau a the
+velocity the other forces alone would give: each row's impulse is
+lam = tau k (theta J v+ + (1 - theta) J v-), theta fitted to the row's own relaxation
+(``fitted_theta``), so
 
-    v+ = v_f - M^-1 J^T lam,   (C + W) lam = J v_f,   C = diag(1 / (tau k)),   W = J M^-1 J^T,
+    v+ = v_f - M^-1 J^T lam,   (C + W) lam = J v_f + (1 - theta)/theta J v-,
+    C = diag(1 / (tau k theta)),   W = J M^-1 J^T.
 
-lam the impulse of each row over the kick of length tau. This dual (impulse) system is symmetric
-positive definite; it is solved by conjugate gradients preconditioned with each row's own 7 x 7
-block (exact for an isolated pair), started at lam = 0. Then, for any number of iterations:
-
-- momentum is exact: every update is an impulse J^T lam applied equal and opposite to the pair
-  (the angular balance is the lubrication law's own, lever a_i + a_j);
-- no energy is injected: CG from 0 decreases f(lam) = lam.(C + W) lam / 2 - lam.J v_f from f(0) = 0,
-  so the kinetic energy after the impulse is at most that of v_f minus lam.C lam / 2 (plus the
-  work of moving walls and kinematic bodies, whose velocities enter J v_f).
+This impulse system is symmetric positive definite; it is solved by conjugate gradients
+preconditioned with each row's own 7 x 7 block (exact for an isolated pair), started from the last
+step's impulses or from 0. For any number of iterations momentum is exact (every update is an
+impulse J^T lam applied equal and opposite to the pair; the angular balance is the lubrication
+law's own, lever a_i + a_j). No energy injected is proved for backward Euler (theta = 1 in every
+row: any CG iterate started at an objective <= 0 is a Galerkin projection, so the kinetic energy
+after the impulse is at most that of v_f, plus the work of moving walls and bodies, whose
+velocities enter J v_f) and, for the exact solve, for any theta >= 1/2 common to all rows; for the
+fitted per-row theta it is checked, not proved (tests/test_lubrication_implicit.py).
 
 Records (one per Verlet slot in ``Scratch.lub_slots``, one per particle and wall in
 ``Scratch.lub_rows``), ``RW_*`` offsets; the 7-vectors are ordered (normal, slip x, y, z, roll x,
