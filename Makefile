@@ -6,11 +6,13 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 CONSTRAINTS := requirements/constraints.txt
 
-.PHONY: run test bench mutate lock clean-results help
+.PHONY: run test lint lint-fix bench mutate lock clean-results help
 
 help:
 	@echo "make run    - install into .venv and run the default quick study (all scenes, plots, report)"
-	@echo "make test   - install into .venv (with the test extra) and run the test suite"
+	@echo "make test   - install into .venv (with the test extra), lint, and run the test suite"
+	@echo "make lint   - the lint step of make test alone: ruff check, snakefmt --check"
+	@echo "make lint-fix - what ruff and snakefmt fix themselves (ruff check --fix, snakefmt)"
 	@echo "make bench  - engine throughput benchmark against LIGGGHTS (box case, 1 core)"
 	@echo "make mutate - curated physics mutants against the tests, kill rate per module (~1 h)"
 	@echo "make lock   - re-resolve the newest allowed dependency versions into $(CONSTRAINTS)"
@@ -25,10 +27,18 @@ run: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES)
 	$(BIN)/snakemake --report results/report.html
 
-# Test files in parallel, one worker per core (compiling each physics variant dominates; the
-# workers share the on-disk kernel cache).
-test: $(STAMP)
+# Lint first (seconds; settings in pyproject.toml), then the test files in parallel, one worker
+# per core (compiling each physics variant dominates; the workers share the on-disk kernel cache).
+test: lint
 	$(BIN)/python -m pytest -n auto --dist worksteal
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/snakefmt --check Snakefile workflow
+
+lint-fix: $(STAMP)
+	$(BIN)/ruff check --fix .
+	$(BIN)/snakefmt Snakefile workflow
 
 bench: $(STAMP)
 	$(BIN)/python bench/engine_throughput.py --case box --cores 1 --json bench/out/box_1.json

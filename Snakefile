@@ -14,6 +14,8 @@ report: "workflow/report/workflow.rst"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/ballmill.smk"
+
+
 # The other scenes' rules exist only when the config has their block.
 if "stirred_mill" in config:
 

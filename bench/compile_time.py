@@ -3,11 +3,12 @@
     NUMBA_CACHE_DIR=$(mktemp -d) PYTHONPATH=TREE/src \
         python bench/compile_time.py run SCENE --set k=v ...
 
-Runs the command in this process with a listener on numba's ``numba:compile`` event and prints,
-to stderr, the process's wall time and the compile seconds of the 15 most expensive functions
-(nested: a function's time includes the functions compiled while it was being compiled). With an
-empty kernel cache this is the compile cost of the scene's loop variant; comparing two trees on
-the same command gives the "compile time per variant" of docs/results/restructure.md.
+Runs the command in this process with a listener on numba's ``numba:compile`` event and prints, to
+stderr, the process's wall time and the compile CPU seconds (the compiling thread's, so that other
+load on the machine does not count) of the 15 most expensive functions (nested: a function's time
+includes the functions compiled while it was being compiled). With an empty kernel cache this is the
+compile cost of the scene's loop variant; comparing two trees on the same command gives the "compile
+time per variant" of docs/results/restructure.md.
 """
 
 import collections
@@ -24,23 +25,24 @@ class CompileTimer(event.Listener):
         self.started = {}
 
     def on_start(self, ev):
-        self.started[id(ev.data["dispatcher"]), str(ev.data["args"])] = time.perf_counter()
+        self.started[id(ev.data["dispatcher"]), str(ev.data["args"])] = time.thread_time()
 
     def on_end(self, ev):
         key = id(ev.data["dispatcher"]), str(ev.data["args"])
-        elapsed = time.perf_counter() - self.started.pop(key)
+        elapsed = time.thread_time() - self.started.pop(key)
         SECONDS[ev.data["dispatcher"].py_func.__qualname__] += elapsed
 
 
 def main(argv):
     event.register("numba:compile", CompileTimer())
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     from millsim.cli import main as millsim
 
     try:
         return millsim(argv)
     finally:
-        print(f"process {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        print(f"process {time.perf_counter() - t0:.1f} s wall, {time.process_time() - c0:.1f} s CPU",
+              file=sys.stderr)
         for name, s in sorted(SECONDS.items(), key=lambda kv: -kv[1])[:15]:
             print(f"{s:8.2f} s  {name}", file=sys.stderr)
 

@@ -1,6 +1,7 @@
 """Engine throughput: the same settled bed (or rotating drum) in millsim and in LIGGGHTS 3.8.
 
-    python bench/engine_throughput.py --case box|drum --cores 1|2 [--json FILE] [--quick]
+    python bench/engine_throughput.py --case box|drum --cores N [--json FILE] [--quick]
+                                      [--prep-from DIR]
 
 Case (shared/reference/peers.md part B): 10,000 spheres r = 1 mm, rho = 2500 kg/m3, Hertz-Mindlin
 with tangential history, E = 5 MPa, nu = 0.3, COR 0.5, mu 0.3, gravity; box 44 x 44 mm, or drum
@@ -9,7 +10,9 @@ up) the bed; millsim starts from that very state, so both codes time the same co
 Throughput = particles x steps / seconds of the timed loop (LIGGGHTS "Loop time"; millsim: the
 compiled chunks, excluding start-up), both on the same number of cores in the same run.
 ``compile_s``: first start with an empty numba cache (compile + 10 steps); ``cached_start_s``: the
-same start with the cache filled. Both are whole-process wall times.
+same start with the cache filled. Both are whole-process wall times. LIGGGHTS runs on N MPI ranks
+(``mpirun -np N``), millsim on N numba threads; ``--prep-from`` takes LIGGGHTS' prepared state
+from another run's directory, so that every core count starts from the same bed.
 """
 
 import argparse
@@ -81,16 +84,21 @@ def run_millsim(values, steps, cores, cache_dir):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--case", choices=("box", "drum"), default="box")
-    ap.add_argument("--cores", type=int, choices=(1, 2), default=1)
+    ap.add_argument("--cores", type=int, default=1, help="MPI ranks / numba threads (1 to the CPUs)")
+    ap.add_argument("--prep-from", help="directory of a LIGGGHTS run whose prepared state to reuse")
     ap.add_argument("--steps", type=int, default=20000)
     ap.add_argument("--json", help="write the result here")
     ap.add_argument("--quick", action="store_true", help="shorter LIGGGHTS settling/spin-up (drum)")
     ap.add_argument("--workdir", default=str(HERE / "out"))
     args = ap.parse_args(argv)
+    cpus = os.cpu_count() or 1
+    if not 1 <= args.cores <= cpus:
+        ap.error(f"--cores {args.cores}: this machine has {cpus} logical CPUs (allowed 1-{cpus})")
 
+    load0 = os.getloadavg()
     work = Path(args.workdir)
     lig = liggghts.run_liggghts(args.case, args.cores, work / "liggghts" / f"{args.case}_{args.cores}",
-                                quick=args.quick)
+                                quick=args.quick, prep_from=args.prep_from)
     state = lig["spun_state_path"] if args.case == "drum" else lig["settled_state_path"]
     mine = work / f"millsim_{args.case}_state.csv"
     to_millsim_frame(state, mine, args.case)
@@ -111,6 +119,7 @@ def main(argv=None):
         "millsim_threads": timed["threads"], "millsim_contacts_per_particle": timed["contacts_per_particle"],
         "millsim_list_rebuilds": timed["list_rebuilds"], "liggghts_version": lig["liggghts_version"],
         "liggghts_binary": lig["binary"], "liggghts_quick_prep": args.quick,
+        "cpu_count": cpus, "loadavg": [load0, os.getloadavg()],
     }
     print(f"{'engine':10s} {'cores':>5s} {'particle-steps/s':>17s} {'loop s':>8s}")
     print(f"{'millsim':10s} {args.cores:5d} {psps:17.3g} {timed['loop_s']:8.1f}")

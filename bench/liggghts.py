@@ -28,7 +28,7 @@ steps; drum: settle 10k + spin-up 15k steps, so the drum flow is not yet steady)
 carry a ``_quick`` suffix so they never stand in for a full preparation. The timed stage is
 always the same 20,000 steps at dt 1e-6.
 
-Usage: python bench/liggghts.py --case box|drum --cores 1|2 [--workdir DIR] [--quick]
+Usage: python bench/liggghts.py --case box|drum --cores N [--workdir DIR] [--quick]
 """
 from __future__ import annotations
 
@@ -109,9 +109,9 @@ def write_drum_stl(path: Path, radius: float = 0.04, length: float = 0.04,
                 v = [tri[2][k] - tri[0][k] for k in range(3)]
                 n = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
                 norm = math.sqrt(sum(x * x for x in n))
-                lines.append("facet normal %g %g %g" % tuple(x / norm for x in n))
+                lines.append("facet normal " + " ".join(f"{x / norm:g}" for x in n))
                 lines.append(" outer loop")
-                lines.extend("  vertex %.9e %.9e %.9e" % p for p in tri)
+                lines.extend("  vertex " + " ".join(f"{c:.9e}" for c in p) for p in tri)
                 lines.append(" endloop")
                 lines.append("endfacet")
     lines.append("endsolid drum")
@@ -183,8 +183,12 @@ def _timed_stats(text: str) -> dict:
     }
 
 
-def run_liggghts(case: str, cores: int, workdir: Path, quick: bool = False) -> dict:
-    """Run the LIGGGHTS benchmark for case "box" or "drum" on `cores` MPI ranks; see module doc."""
+def run_liggghts(case: str, cores: int, workdir: Path, quick: bool = False,
+                 prep_from: Path | None = None) -> dict:
+    """Run the LIGGGHTS benchmark for case "box" or "drum" on `cores` MPI ranks; see module doc.
+
+    prep_from: a directory holding the prepared state of an earlier run (any rank count: a
+    restart file does not depend on it), copied here instead of settling again."""
     if (case, quick) not in PREP_STEPS:
         raise ValueError(f"unknown case {case!r}")
     binary, binary_source = find_liggghts()
@@ -197,6 +201,10 @@ def run_liggghts(case: str, cores: int, workdir: Path, quick: bool = False) -> d
     if case == "drum":
         write_drum_stl(workdir / "drum_shell.stl")
 
+    if prep_from is not None and Path(prep_from).resolve() != workdir:
+        for f in Path(prep_from).glob(f"{state}*"):
+            if f.suffix in (".restart", ".csv") and not (workdir / f.name).exists():
+                shutil.copy2(f, workdir / f.name)
     prep_cached = restart.exists() and settled_csv.exists() and (case == "box" or spun_csv.exists())
     prep_wall = None
     if prep_cached:
@@ -238,7 +246,7 @@ def run_liggghts(case: str, cores: int, workdir: Path, quick: bool = False) -> d
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", choices=["box", "drum"], required=True)
-    ap.add_argument("--cores", type=int, choices=[1, 2], default=1)
+    ap.add_argument("--cores", type=int, default=1, help="MPI ranks")
     ap.add_argument("--workdir", type=Path, help="default: bench/out/liggghts/<case>_<cores>")
     ap.add_argument("--quick", action="store_true", help="shorter untimed settle/spin-up (see module doc)")
     args = ap.parse_args(argv)

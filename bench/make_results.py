@@ -8,6 +8,7 @@ that writes it. Files read (any may be missing; its section then says so):
 - ``box_<cores>.json``, ``drum_<cores>.json``: bench/engine_throughput.py (millsim vs LIGGGHTS);
 - ``leave_out_*.json``: bench/leave_out.py (physics compiled out vs in but inactive);
 - ``scaling*.json``: bench/scaling.py (cost vs particle count and time step, peak memory);
+- ``strong_scaling*.json``: bench/strong_scaling.py (the same system on 1, 2, 4, ... cores);
 - ``ls1*.json``: bench/ls1.py (full-scale LS1 stirred mill vs seed 004 Table 3).
 """
 
@@ -114,7 +115,8 @@ def leave_out():
              "loops compiled with more physics than it uses, all of it inactive (fracture energies "
              "infinite, eta = 0): `inactive` = Tavares breakage + lubrication + energy audit, "
              "`breakage`, `lubrication`, `audit` = each alone. Median of the repeats; ratio = "
-             "median / median of `lean` (the scene's own loop) from the same file. Each file names the command that wrote it "
+             "median / median of `lean` (the scene's own loop) from the same file. Each file "
+             "names the command that wrote it "
              "(`leave_out_1.json`: `python bench/leave_out.py`, three variants, one thread, before "
              "the split).", ""]
     for p, d in files:
@@ -303,6 +305,25 @@ def summary():
     return text
 
 
+def strong_scaling():
+    files = _load("strong_scaling*.json")
+    text = ["## Strong scaling", ""]
+    if not files:
+        return text + ["No `strong_scaling*.json` in bench/out.", ""]
+    for p, d in files:
+        text += [f"`{p.name}` ({_command(d)}); machine: {d['cpu_count']} logical CPUs. Efficiency = "
+                 "rate(N) / (N rate(1)) against the one-core row of the same run; load = 1-minute "
+                 "load average before-after the row (above the idle cores: the row competed with "
+                 "other work).", ""]
+        rows = [[r["physics"], r["n_particles"], r["cores"], r["cpu_count"], _g(r["rate"]),
+                 f"{r['speedup']:.2f}" if "speedup" in r else "-",
+                 f"{r['efficiency']:.0%}" if "efficiency" in r else "-",
+                 _load_note(_one_minute(r.get("loadavg")))] for r in d["rows"]]
+        text += [_table(["physics", "particles", "cores", "machine CPUs", "particle-steps/s",
+                         "speed-up", "efficiency", "load (1 min)"], rows), ""]
+    return text
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(HERE / "RESULTS.md"))
@@ -318,7 +339,7 @@ def main(argv=None):
             "run (millsim / LIGGGHTS, variant / lean), which the interleaving of the measurements "
             "makes largely load-independent. Timings older than the load recording say \"not "
             "recorded\".", ""]
-    for section in (summary, throughput, leave_out, scaling, ls1):
+    for section in (summary, throughput, strong_scaling, leave_out, scaling, ls1):
         text += section()
     Path(args.out).write_text("\n".join(text).rstrip() + "\n")
     print(f"wrote {args.out}")

@@ -138,7 +138,7 @@ def synthetic_cases(seeds=(1, 2, 3)):
     the same converged drive power 1.0 W; the rate has seed noise (sd 5 s-1) and noise that
     differs from step to step (+-3 s-1) larger than its step dependence (up to 2 s-1, 4 %)."""
     rows = []
-    for series, spc, c, link in (("gear", [100, 50, 25, 16], 0.002, None),
+    for series, spc, c, _link in (("gear", [100, 50, 25, 16], 0.002, None),
                                  ("verlet", [50, 25, 16, 10], 0.02, "gear")):
         for n in spc:
             h = 1e-4 / n
@@ -188,7 +188,7 @@ def test_analyse_borrowed_reference_and_choice():
 def test_dataset_roundtrip_summary_and_figure(tmp_path):
     cases = synthetic_cases()
     points, choices = acc.analyse(cases, links={("ballmill", "verlet"): "gear"})
-    ds = acc.to_dataset(cases, points, choices, {"tolerance": 0.01})
+    ds = acc.to_dataset(cases, points, choices, {"tolerance": 0.01, "title": "synthetic"})
     path = tmp_path / "accuracy.nc"
     write_netcdf(path, ds)
     with xr.open_dataset(path, engine="netcdf4") as back:

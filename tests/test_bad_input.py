@@ -289,7 +289,7 @@ def test_stale_temporary_files_of_a_target_are_removed(tmp_path):
     hours_ago = time.time() - 7200
     os.utime(stale, (hours_ago, hours_ago))
     os.utime(other, (hours_ago, hours_ago))
-    ds = xr.Dataset({"x": ("i", np.arange(3.0), {"units": "1"})})
+    ds = xr.Dataset({"x": ("i", np.arange(3.0), {"units": "1"})}, attrs={"title": "three"})
     write_netcdf(tmp_path / "agg.nc", ds)
     assert files(tmp_path) == sorted([young.name, other.name, "agg.nc"])
 

@@ -8,10 +8,14 @@ from scipy import stats
 
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.models import Interaction, Material, MaterialTable, WeibullModel
-from millsim.models.breakage.weibull import (fracture_probability, rosin_rammler_cdf,
-                                             rosin_rammler_radius, split_disk)
-from millsim.util.stats import steady_rate
+from millsim.models.breakage.weibull import (
+    fracture_probability,
+    rosin_rammler_cdf,
+    rosin_rammler_radius,
+    split_disk,
+)
 from millsim.scenes.base import RunContext, get_scene
+from millsim.util.stats import steady_rate
 
 
 def test_rosin_rammler_sampler_matches_its_cdf():

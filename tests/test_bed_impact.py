@@ -14,7 +14,7 @@ from millsim.models import TavaresModel
 from millsim.models.breakage.replacement import TavaresReplacement
 from millsim.models.breakage.tavares import global_min_size, load_materials
 from millsim.scenes import bed_impact as bed
-from millsim.scenes.base import RunContext, get_scene
+from millsim.scenes.base import get_scene
 
 D = 5.5e-3
 

@@ -28,8 +28,7 @@ from scipy import optimize, special, stats
 
 from millsim.analysis import bed_impact as bed_analysis
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
-from millsim.models import (Interaction, Material, MaterialTable, TavaresModel,
-                            WeibullModel)
+from millsim.models import Interaction, Material, MaterialTable, TavaresModel, WeibullModel
 from millsim.models.breakage import tavares as tv
 from millsim.models.breakage import tavares_predictions as ver
 from millsim.models.breakage import weibull

@@ -91,7 +91,7 @@ def edem_damping(restitution):
     return 2.0 * math.sqrt(5.0 / 6.0) * (-ln_e) / math.sqrt(ln_e**2 + math.pi**2)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def clipped_damping(restitution):
     """The damping factor (as edem_damping's) for which the head-on collision with the force
     clipped at zero returns e, the engine's default convention: inverted here by brentq on an
@@ -105,7 +105,9 @@ def clipped_damping(restitution):
             a = math.sqrt(max(y[0], 0.0))
             return 4.0 / 3.0 * a * max(y[0], 0.0) + c * math.sqrt(2.0 * a) * y[1]
 
-        end = lambda _, y: fn(y)
+        def end(_, y):
+            return fn(y)
+
         end.terminal, end.direction = True, -1
         sol = solve_ivp(lambda _, y: [y[1], -max(fn(y), 0.0)], (0, 100), [1e-12, 1.0],
                         events=end, rtol=1e-11, atol=1e-14)
@@ -367,7 +369,7 @@ def test_gross_sliding_impulse_is_mu_times_normal_impulse(wall_impacts):
     solution covers that case.)"""
     results, (r_i, r_j, m_i, m_j) = wall_impacts
     checked = 0
-    for (e, ang, s, wi0, _w), dv, wi, _wj, (*_, slid) in results:
+    for (_e, ang, s, wi0, _w), dv, wi, _wj, (*_, slid) in results:
         if not slid:
             continue
         checked += 1
@@ -550,7 +552,7 @@ def test_linear_pair_restitution_and_contact_time(law):
     refs = []
     for value in es:
         if law == "linear_history":
-            zeta = brentq(lambda z: linear_clipped_collision(k_n, m_eff, z * w0)[0] - value,
+            zeta = brentq(lambda z: linear_clipped_collision(k_n, m_eff, z * w0)[0] - value,  # noqa: B023 (used here)
                           0.0, 0.99, xtol=1e-14)
             e_ref, t_ref = linear_clipped_collision(k_n, m_eff, zeta * w0)
             assert e_ref == pytest.approx(value, rel=1e-9)

@@ -5,11 +5,17 @@ import math
 import numpy as np
 import pytest
 
-from millsim.engine import (Guards, PhysicsSpec, Simulation, SimulationError, StepPolicy,
-                            TimeStepError)
-from millsim.models import Interaction, Material, MaterialTable
+from millsim.engine import (
+    Guards,
+    PhysicsSpec,
+    Simulation,
+    SimulationError,
+    StepPolicy,
+    TimeStepError,
+)
 from millsim.engine.neighbours import brute_force_pairs, build_verlet
 from millsim.engine.state import empty_contacts
+from millsim.models import Interaction, Material, MaterialTable
 
 
 def _table(law="hertz_mindlin", **inter):

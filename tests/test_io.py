@@ -1,6 +1,6 @@
 import platform
 import xml.etree.ElementTree as ET
-from datetime import datetime, timedelta, timezone
+from datetime import UTC, datetime, timedelta
 
 import h5py
 import numba
@@ -81,7 +81,7 @@ def test_roundtrip(tmp_path):
     assert attrs["numba_version"] == numba.__version__
     created = datetime.fromisoformat(attrs["created_utc"])
     assert created.utcoffset() == timedelta(0)
-    assert timedelta(seconds=-1) < datetime.now(timezone.utc) - created < timedelta(minutes=5)
+    assert timedelta(seconds=-1) < datetime.now(UTC) - created < timedelta(minutes=5)
     assert "hostname" not in attrs
     assert attrs["engine_hash"] == millsim.provenance_hash()
 

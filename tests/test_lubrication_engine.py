@@ -30,10 +30,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from helpers import clipped_damping_ratio
 from millsim.engine import PhysicsSpec, Simulation
 from millsim.models import Interaction, Lubrication, Material, MaterialTable
 from millsim.models.lubrication import lubrication_dt_limit
+
+from helpers import clipped_damping_ratio
 
 PI = math.pi
 RHO = 2500.0  # bead density [kg/m3]
@@ -442,8 +443,8 @@ def test_squeeze_under_constant_force_unequal_spheres(free_small):
         steps = int(t_end / sim.dt)
         ts, hs = [], []
         sim.run(steps, chunk=max(1, steps // 40), threads=1,
-                observer=lambda s: (ts.append(s.time),
-                                    hs.append(s.particles.x[0, 2] - a_free - a_fixed)))
+                observer=lambda s: (ts.append(s.time),  # noqa: B023 (this run's lists)
+                                    hs.append(s.particles.x[0, 2] - a_free - a_fixed)))  # noqa: B023
         assert hs[-1] < h_min  # it got into the clamped range
         errors.append(np.abs(np.array(hs) - sol.sol(np.array(ts))[0]).max())
     assert errors[0] <= 3e-4 * h_min

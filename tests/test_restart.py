@@ -32,8 +32,9 @@ SETS = {"drum_radius": "0.02", "grain_radius": "0.002", "filling": "0.3", "durat
 RUN = ["run", "ballmill2d", *(f"--set={k}={v}" for k, v in SETS.items())]
 SCENE = get_scene("ballmill2d")
 VALUES = SCENE.resolve(SETS)
-# what may differ between two runs of one case: how long they took, and when the file was written
-TIMING = {"wall_time_s", "compute_seconds", "created_utc", "resumed_at_steps"}
+# what may differ between two runs of one case: how long they took, and when (and by which
+# command line) the file was written
+TIMING = {"wall_time_s", "compute_seconds", "created_utc", "history", "resumed_at_steps"}
 
 
 @pytest.fixture(scope="module")

@@ -120,11 +120,11 @@ def test_hertz_damping_against_an_independent_ode(e):
 
         def force(y):
             sn = 2 * e_star * math.sqrt(r_eff * max(y[0], 0.0))
-            return (2 / 3) * sn * max(y[0], 0.0) + c * math.sqrt(sn * m) * y[1]
+            return (2 / 3) * sn * max(y[0], 0.0) + c * math.sqrt(sn * m) * y[1]  # noqa: B023
 
         def rhs(_, y):
             f = force(y)
-            return [y[1], -(max(f, 0.0) if convention == "clipped" else f) / m]
+            return [y[1], -(max(f, 0.0) if convention == "clipped" else f) / m]  # noqa: B023
 
         end = (lambda _, y: force(y)) if convention == "clipped" else (lambda _, y: y[0])
         end.terminal, end.direction = True, -1

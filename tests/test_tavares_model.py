@@ -11,8 +11,12 @@ import pytest
 from scipy import integrate, special, stats
 
 from millsim.models.breakage import tavares as tv
-from millsim.models.breakage.tavares_predictions import (TABLE2_COUNTS, TABLE2_DUMMY, TABLE2_PROB,
-                                                         TABLE2_SIZES)
+from millsim.models.breakage.tavares_predictions import (
+    TABLE2_COUNTS,
+    TABLE2_DUMMY,
+    TABLE2_PROB,
+    TABLE2_SIZES,
+)
 
 STEEL_K = 210e9 / (1.0 - 0.3**2)
 
@@ -208,7 +212,9 @@ def test_t10_eq8_eq9(mats):
 
 def _ibeta_quad(x, a, b):
     """Regularised incomplete beta by quadrature (independent of scipy.special.betainc)."""
-    f = lambda s: s ** (a - 1) * (1 - s) ** (b - 1)
+    def f(s):
+        return s ** (a - 1) * (1 - s) ** (b - 1)
+
     num = integrate.quad(f, 0, x, limit=200)[0]
     return num / math.exp(special.betaln(a, b))
 

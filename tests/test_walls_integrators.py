@@ -25,9 +25,10 @@ import pytest
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
-from helpers import clipped_damping_ratio, clipped_linear_restitution
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.models import Interaction, Material, MaterialTable
+
+from helpers import clipped_damping_ratio, clipped_linear_restitution
 
 # The physics variants other test files compile already (tests/test_dynamics.py, test_engine.py):
 # no new kernel for this file.
@@ -192,7 +193,9 @@ def test_clipped_closed_form_against_the_ode():
         f = max(K_N * s[0] + 2 * zeta * math.sqrt(MASS * K_N) * s[1], 0.0)
         return [s[1], -f / MASS]
 
-    leave = lambda t, s: s[0]  # overlap back to zero
+    def leave(t, s):
+        return s[0]  # overlap back to zero
+
     leave.terminal, leave.direction = True, -1
     sol = solve_ivp(rhs, (0, 10 * math.pi / W0), [0.0, 1.0], events=leave, rtol=1e-11,
                     atol=1e-16, max_step=math.pi / W0 / 200)

@@ -16,6 +16,10 @@ compiled into the step loop (``COMPILED``) runs with an empty kernel cache, and 
     python tools/mutate.py --only hm-kt-x2  # some of them (repeatable, or a prefix with *)
     python tools/mutate.py --ref HEAD~3     # the sources and tests of a commit (score before a change)
     python tools/mutate.py --list
+    python tools/mutate.py --ref acc2ce6 --mutants OLD.yaml --test-map tools/mutate_before_map.yaml
+                                            # an older suite against the mutants of its time, each
+                                            # test file that did not exist yet replaced by the
+                                            # older files covering the same physics
 
 Not part of CI: a full run compiles every kernel variant once per mutant (about an hour on 2 cores).
 The report goes to stdout and, with ``--out``, to a Markdown file.
@@ -44,6 +48,25 @@ COMPILED = ("src/millsim/engine/", "src/millsim/models/contact.py", "src/millsim
             "src/millsim/models/breakage/weibull.py", "src/millsim/models/breakage/damage.py",
             "src/millsim/models/breakage/tavares_engine.py", "src/millsim/breakage/weibull.py",
             "src/millsim/breakage/damage.py")
+
+
+def load_test_map(path):
+    """{test file: [files that stand in for it]} (for suites older than a mutant's test files)."""
+    if path is None:
+        return {}
+    table = yaml.safe_load(Path(path).read_text())
+    if not isinstance(table, dict) or not all(isinstance(v, list) for v in table.values()):
+        raise ValueError(f"{path}: expected a mapping of test file -> list of test files")
+    return table
+
+
+def mapped_tests(tests, test_map):
+    out = []
+    for t in tests:
+        for u in test_map.get(t, [t]):
+            if u not in out:
+                out.append(u)
+    return out
 
 
 def load_mutants(path=MUTANTS):
@@ -108,12 +131,15 @@ def main(argv=None):
     ap.add_argument("--only", action="append", help="mutant id or glob (repeatable)")
     ap.add_argument("--ref", help="git ref whose src/ and tests/ to mutate (default: working tree)")
     ap.add_argument("--timeout", type=float, default=1200.0, help="seconds per mutant")
+    ap.add_argument("--mutants", default=str(MUTANTS), help="mutant list (default: %(default)s)")
+    ap.add_argument("--test-map", help="YAML {test file: [stand-in files]} for an older suite")
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--out", help="also write the report (Markdown) here")
     ap.add_argument("--json", help="also write the outcomes (JSON) here")
     args = ap.parse_args(argv)
 
-    mutants = load_mutants()
+    mutants = load_mutants(args.mutants)
+    test_map = load_test_map(args.test_map)
     if args.only:
         mutants = [m for m in mutants if any(fnmatch.fnmatch(m["id"], p) for p in args.only)]
         if not mutants:
@@ -140,7 +166,8 @@ def main(argv=None):
             if stale:
                 outcome, elapsed, detail = "stale", 0.0, stale
             else:
-                outcome, elapsed, detail = run_tests(tree, m["tests"], args.timeout, cache)
+                outcome, elapsed, detail = run_tests(tree, mapped_tests(m["tests"], test_map),
+                                                    args.timeout, cache)
             if compiled:  # kernels compiled with this mutant inlined are useless to the next one
                 shutil.rmtree(cache, ignore_errors=True)
             results.append(dict(id=m["id"], module=m["module"], why=m["why"], outcome=outcome,

@@ -21,7 +21,6 @@ import math
 import sys
 from pathlib import Path
 
-import numpy as np
 from scipy.integrate import solve_ivp
 
 ROOT = Path(__file__).resolve().parent.parent.parent

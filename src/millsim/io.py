@@ -6,6 +6,13 @@ foreign file with one line naming it.
 All quantities are SI; every variable carries a CF-style ``units`` attribute ("1" when
 dimensionless). A case's provenance goes into global attributes so that a case file alone says
 how it was produced.
+
+CF conventions (CF-1.8) of every netCDF file: global ``Conventions``, ``title`` and ``history``
+(when and by which command line it was written); ``standard_name`` only where the CF standard
+name table has one (``time``: elapsed simulated time in s, without a calendar date to count from;
+the DEM quantities have none); ``axis`` (X, Y horizontal, Z vertical with ``positive``, T) on the
+spatial and time coordinates that the scenes define; ``bounds`` on coordinates that stand for
+intervals (the ball mill's size classes), whose bounds variable inherits the coordinate's units.
 """
 
 from __future__ import annotations
@@ -16,13 +23,15 @@ import operator
 import os
 import pickle
 import platform
+import shlex
+import sys
 import tempfile
 import time
 import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from contextlib import contextmanager
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -210,15 +219,23 @@ def write_netcdf(path: str | os.PathLike[str], data: xr.Dataset,
     """Write any dataset to netCDF4 atomically (``path`` is either complete or untouched), CF-style.
 
     The one netCDF writer of millsim: case files, aggregates and analysis outputs all go through
-    it. Every data variable and coordinate needs a ``units`` attribute ("1" if dimensionless);
-    coordinates get no fill value (CF forbids missing values there); attributes are made
-    netCDF-legal. The global attributes are ``data.attrs`` updated by ``attrs``, plus
-    ``Conventions`` and ``created_utc``.
+    it. Every data variable and coordinate needs a ``units`` attribute ("1" if dimensionless),
+    except a bounds variable (it has its coordinate's); coordinates get no fill value (CF forbids
+    missing values there); attributes are made netCDF-legal. The global attributes are
+    ``data.attrs`` updated by ``attrs``, which must give a ``title``, plus ``Conventions``,
+    ``created_utc`` and ``history``: the time and command line of this write, before the history
+    the data came with.
     """
     path = Path(path)
+    given = {**data.attrs, **(attrs or {})}
+    if not given.get("title"):
+        raise ValueError("title: every netCDF file of millsim says what it holds in a 'title' "
+                         "attribute")
+    # a bounds variable read back by xarray has its "bounds" reference in .encoding
+    bounds = {v.attrs.get("bounds", v.encoding.get("bounds")) for v in data.variables.values()}
     for name, variable in data.variables.items():
         # xarray keeps the units of decoded times in .encoding rather than .attrs
-        if "units" not in variable.attrs and "units" not in variable.encoding:
+        if name not in bounds and "units" not in variable.attrs | variable.encoding:
             raise ValueError(
                 f"variable {name!r} has no 'units' attribute (use '1' if dimensionless)"
             )
@@ -229,10 +246,12 @@ def write_netcdf(path: str | os.PathLike[str], data: xr.Dataset,
         if name in ds.coords:
             # CF forbids missing values in coordinates; xarray would add a NaN _FillValue to floats
             variable.encoding = {"_FillValue": None, **variable.encoding}
+    created = datetime.now(UTC).isoformat(timespec="seconds")
+    history = "\n".join(filter(None, [f"{created} {_command_line()}", given.get("history")]))
     ds.attrs = {
-        **{k: _attr_value(k, v) for k, v in data.attrs.items()},
-        **{k: _attr_value(k, v) for k, v in (attrs or {}).items()},
-        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        **{k: _attr_value(k, v) for k, v in given.items()},
+        "created_utc": created,
+        "history": history,
         "Conventions": "CF-1.8",
     }
     with atomic_target(path) as tmp:
@@ -240,13 +259,20 @@ def write_netcdf(path: str | os.PathLike[str], data: xr.Dataset,
     return path
 
 
+def _command_line() -> str:
+    """The command line of this process, program by its name (for ``history``)."""
+    return shlex.join([Path(sys.argv[0]).name or "python", *sys.argv[1:]])
+
+
 def write_case(path: str | os.PathLike[str], data: xr.Dataset, provenance: dict[str, Any]) -> Path:
     """Write one case with its provenance (:func:`write_netcdf`, atomic).
 
     ``provenance`` needs the keys scene, parameters, seed, dt (s), steps and wall_time_s; further
-    keys are stored as they are. The software versions and the engine hash are added.
+    keys are stored as they are. The software versions and the engine hash are added, and a
+    title naming the scene unless ``data`` has one.
     """
     attrs = {**_provenance_attrs(provenance), **_software_attrs()}
+    attrs.setdefault("title", data.attrs.get("title") or f"millsim {attrs['scene']} case")
     data = data.copy(deep=False)
     # param_* of a re-written case would be stale if its parameters changed
     data.attrs = {k: v for k, v in data.attrs.items() if not k.startswith("param_")}
@@ -258,10 +284,12 @@ def read_case(path: str | os.PathLike[str], scene: str | None = None) -> xr.Data
     closed on return. ``scene``: require a case file (written by write_case) of that scene, or of
     any scene with ``"*"``.
 
-    Times are stored as SI seconds, so CF time decoding is turned off to keep them floats.
+    Times are stored as SI seconds, so CF time decoding is turned off to keep them floats. Bounds
+    variables are read as coordinates (so that stacking cases keeps one set, not one per case).
     """
     try:
-        ds = xr.load_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False)
+        ds = xr.load_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False,
+                             decode_coords="all")
     except (OSError, ValueError) as exc:
         raise _unreadable(path, exc, "netCDF file") from None
     if scene is not None:

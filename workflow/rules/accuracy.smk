@@ -55,8 +55,7 @@ for _name in ACCURACY_NAMES:
 
 def accuracy_tables():
     return [
-        f"results/accuracy/{name}/{series}.csv"
-        for name, series, _, _ in ACCURACY_STUDIES.values()
+        f"results/accuracy/{name}/{series}.csv" for name, series, _, _ in ACCURACY_STUDIES.values()
     ]
 
 
@@ -170,10 +169,10 @@ rule plot_accuracy:
         ),
     log:
         "results/logs/plot_accuracy/{subject}.log",
-    params:
-        caption=PLOTS[ACCURACY_FIGURE].caption,
     wildcard_constraints:
         subject="|".join(ACCURACY_NAMES) or "none",
+    params:
+        caption=PLOTS[ACCURACY_FIGURE].caption,
     shell:
         "millsim plot error_vs_runtime_{wildcards.subject} {input} --out {output} > {log} 2>&1"
 

@@ -97,10 +97,10 @@ rule plot_ballmill:
         ),
     log:
         "results/logs/plot_ballmill/{figure}.log",
-    params:
-        caption=figure_caption,
     wildcard_constraints:
         figure="|".join(BALLMILL_FIGURES),
+    params:
+        caption=figure_caption,
     shell:
         "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 

@@ -83,10 +83,10 @@ rule plot_bed_impact:
         ),
     log:
         "results/logs/plot_bed_impact/{figure}.log",
-    params:
-        caption=figure_caption,
     wildcard_constraints:
         figure="|".join(BED_IMPACT_FIGURES),
+    params:
+        caption=figure_caption,
     shell:
         "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 

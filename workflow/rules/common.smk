@@ -182,6 +182,7 @@ STUDIES = {
     "ballmill_animation": ballmill_study("animation", fragmentation=True),
 }
 
+
 def case_file(study, name="case.nc"):
     """Path pattern of one file of a case, with one wildcard per swept parameter."""
     return f"results/cases/{study}/{STUDIES[study].space.wildcard_pattern}/{name}"
@@ -189,8 +190,7 @@ def case_file(study, name="case.nc"):
 
 def case_files(study, name="case.nc"):
     return [
-        f"results/cases/{study}/{case}/{name}"
-        for case in STUDIES[study].space.instance_patterns
+        f"results/cases/{study}/{case}/{name}" for case in STUDIES[study].space.instance_patterns
     ]
 
 
@@ -211,9 +211,7 @@ def case_sets(study):
         values = {**STUDIES[study].fixed, **swept}
         check_step(study, values)
         # sorted: reordering the config must not look like a change of parameters
-        return " ".join(
-            f"--set {shlex.quote(f'{k}={v}')}" for k, v in sorted(values.items())
-        )
+        return " ".join(f"--set {shlex.quote(f'{k}={v}')}" for k, v in sorted(values.items()))
 
     return sets
 
@@ -237,9 +235,7 @@ def plot_registry():
     listing = run.stdout
     return {
         name: Figure(source, caption)
-        for name, source, caption in (
-            line.split("\t", 2) for line in listing.splitlines() if line
-        )
+        for name, source, caption in (line.split("\t", 2) for line in listing.splitlines() if line)
     }
 
 

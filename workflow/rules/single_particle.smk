@@ -102,10 +102,10 @@ rule plot_single_particle:
         ),
     log:
         "results/logs/plot_single_particle/{figure}.log",
-    params:
-        caption=figure_caption,
     wildcard_constraints:
         figure="|".join(TAVARES_FIGURES),
+    params:
+        caption=figure_caption,
     shell:
         "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 

@@ -55,11 +55,7 @@ def stirred_case(friction, eta, rpm):
 
 
 def stirred_power_cases():
-    return [
-        stirred_case(_SP["friction"], e, r)
-        for e in _SP["eta"]
-        for r in _SP["rpm"]
-    ]
+    return [stirred_case(_SP["friction"], e, r) for e in _SP["eta"] for r in _SP["rpm"]]
 
 
 def stirred_stage1_cases():
@@ -145,10 +141,10 @@ if STIRRED:
             ),
         log:
             "results/logs/plot_stirred_mill/{figure}.log",
-        params:
-            caption=figure_caption,
         wildcard_constraints:
             figure="|".join(STIRRED_FIGURES),
+        params:
+            caption=figure_caption,
         shell:
             "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
 

@@ -1,11 +1,12 @@
 """Error against run time (work-precision) of each scene's headline observables.
 
-A *ladder* is one scene run over a sequence of time steps (a `dt` or `dt_factor` sweep), each step repeated over seeds. Per step and observable this module
-gives the mean over seeds, the error against a converged reference, the statistical noise and the
-wall time, and picks the cheapest step whose error is within a tolerance (1 % of the reference) or
-within the noise. Everything here is a pure function of numbers (numpy/pandas); ``millsim analyse
-accuracy`` reads the case files and writes ``results/aggregate/accuracy.nc``, ``millsim plot
-error_vs_runtime_<name>`` draws the figures (millsim.plots.accuracy).
+A *ladder* is one scene run over a sequence of time steps (a `dt` or `dt_factor` sweep), each step
+repeated over seeds. Per step and observable this module gives the mean over seeds, the error
+against a converged reference, the statistical noise and the wall time, and picks the cheapest step
+whose error is within a tolerance (1 % of the reference) or within the noise. Everything here is a
+pure function of numbers (numpy/pandas); ``millsim analyse accuracy`` reads the case files and
+writes ``results/aggregate/accuracy.nc``, ``millsim plot error_vs_runtime_<name>`` draws the figures
+(millsim.plots.accuracy).
 
 Definitions (also in the README section "Accuracy: error against run time"):
 

@@ -108,4 +108,5 @@ def aggregate(scene: str, paths: Iterable[str | os.PathLike[str]],
     per_case, summary = SCENE_SUMMARIES.get(scene, (_unchanged, _unchanged))
     stacked = summary(stack_cases([per_case(ds) for ds in cases], over, coord_attrs))
     stacked.attrs["source_cases"] = json.dumps(paths)
+    stacked.attrs["title"] = f"millsim {scene}: {len(paths)} cases stacked over {', '.join(over)}"
     return stacked

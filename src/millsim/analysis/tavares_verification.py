@@ -77,7 +77,9 @@ def aggregate(paths):
         ds = read_case(path, "single_particle")
         cases.append((case_parameters(ds), ds))
     out, coords = {}, {}
-    attrs = {"source_cases": json.dumps([os.fspath(p) for p in paths])}
+    attrs = {"source_cases": json.dumps([os.fspath(p) for p in paths]),
+             "title": "millsim Tavares model verification (seed 002 section 4.1): simulated "
+                      "against analytic breakage probabilities, repeated impacts and t10"}
     for group in (_probability, _repeated, _fragmentation):
         group(cases, out, coords, attrs)
 

@@ -15,10 +15,14 @@ has settled).
 Kinematic bodies are groups of particles whose positions follow a prescribed motion from their
 reference positions at t = 0, so there is no drift however long the run:
 
-    [kind, cx, cy, cz, ax, ay, az, rate]
+    [kind, cx, cy, cz, ax, ay, az, rate, ramp]
 
 - ``ROTATE``: rotation about the axis through c along unit a at ``rate`` rad/s.
 - ``TRANSLATE``: translation along unit a at ``rate`` m/s.
+
+``ramp`` > 0 brings the body from rest to ``rate`` at a constant acceleration over ``ramp``
+seconds (a mill's drive starting up, so that the charge is set moving gradually instead of being
+struck at full speed from rest); 0 means at ``rate`` from t = 0.
 """
 
 import math
@@ -33,8 +37,8 @@ W_KIND, W_POINT, W_AXIS, W_RADIUS, W_OMEGA, W_MATERIAL, W_ACTIVE = 0, slice(1, 4
 
 ROTATE, TRANSLATE = 0, 1
 BODY_KINDS = {"rotate": ROTATE, "translate": TRANSLATE}
-BODY_COLUMNS = 8
-B_KIND, B_CENTER, B_AXIS, B_RATE = 0, slice(1, 4), slice(4, 7), 7
+BODY_COLUMNS = 9
+B_KIND, B_CENTER, B_AXIS, B_RATE, B_RAMP = 0, slice(1, 4), slice(4, 7), 7, 8
 
 
 @njit(inline="always", cache=True)
@@ -74,18 +78,29 @@ def wall_contact(wall, x0, x1, x2, r):
 
 
 @njit(inline="always", cache=True)
+def body_motion(body, t):
+    """Angle (rad) or distance (m) travelled since t = 0, and the rate at t."""
+    rate, ramp = body[7], body[8]
+    if ramp > 0.0:
+        if t < ramp:
+            return 0.5 * rate * t * t / ramp, rate * t / ramp
+        return rate * (t - 0.5 * ramp), rate
+    return rate * t, rate
+
+
+@njit(inline="always", cache=True)
 def body_pose(body, x0, t):
-    """Position and velocity at time t of a body point whose position at t = 0 was x0."""
+    """Position and velocity at time t of a body point whose position at t = 0 was x0, and the
+    body's rate at t."""
     kind = int(body[0])
     c0, c1, c2 = body[1], body[2], body[3]
     a0, a1, a2 = body[4], body[5], body[6]
-    rate = body[7]
+    th, rate = body_motion(body, t)
     if kind == TRANSLATE:
-        return (x0[0] + a0 * rate * t, x0[1] + a1 * rate * t, x0[2] + a2 * rate * t,
-                a0 * rate, a1 * rate, a2 * rate)
-    # Rodrigues rotation of (x0 - c) about a by rate * t.
+        return (x0[0] + a0 * th, x0[1] + a1 * th, x0[2] + a2 * th,
+                a0 * rate, a1 * rate, a2 * rate, rate)
+    # Rodrigues rotation of (x0 - c) about a by the angle th.
     r0, r1, r2 = x0[0] - c0, x0[1] - c1, x0[2] - c2
-    th = rate * t
     ct = math.cos(th)
     st = math.sin(th)
     ad = a0 * r0 + a1 * r1 + a2 * r2
@@ -96,4 +111,4 @@ def body_pose(body, x0, t):
     y1 = r1 * ct + k1 * st + a1 * ad * (1.0 - ct)
     y2 = r2 * ct + k2 * st + a2 * ad * (1.0 - ct)
     return (c0 + y0, c1 + y1, c2 + y2,
-            rate * (a1 * y2 - a2 * y1), rate * (a2 * y0 - a0 * y2), rate * (a0 * y1 - a1 * y0))
+            rate * (a1 * y2 - a2 * y1), rate * (a2 * y0 - a0 * y2), rate * (a0 * y1 - a1 * y0), rate)

@@ -30,7 +30,7 @@ from numba import njit, prange
 from .implicit import (LP_FORCE, LP_WIDTH, RW_ACT, RW_LAM, RW_VJ, RW_WALL_WIDTH, RW_WIDTH, RW_Z,
                        lub_kernels, row_absent, row_impulse, row_power)
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
-from .kinematics import ROTATE, body_pose, wall_contact
+from .kinematics import ROTATE, body_motion, body_pose, wall_contact
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
 from .neighbours import build_verlet, min_image, wrap_periodic
 from .state import ContactList, Scratch
@@ -278,7 +278,8 @@ class _Parts:
                     # velocities at t + dt (else each breakage added an extra drift and handed
                     # the handler predicted velocities v + dt a: an energy error per event).
                     start_pass(n_blocks, t + (step + 1) * dt, -dt, P, B)
-                reductions(dt, P, B, W, A.dissipation, wall_part, audit_part, n_blocks)
+                reductions(t + (step + 1) * dt, dt, P, B, W, A.dissipation, wall_part, audit_part,
+                           n_blocks)
                 if stop[0] != 0:
                     events = collect(bs, events, A.n_events, S.out, SLOT_BASE, C.start, C.nbr,
                                      P.inv_mass, step0 + step)
@@ -420,9 +421,7 @@ def _start_block_kernel(spec):
                 else:
                     verlet_drift(i, dt, x, v, P.w, P.acc, P.alpha)
             elif BODIES:
-                p0, p1, p2, u0, u1, u2 = body_pose(B.table[P.body[i]], P.x_body0[i], t_next)
-                x[i, 0], x[i, 1], x[i, 2] = p0, p1, p2
-                v[i, 0], v[i, 1], v[i, 2] = u0, u1, u2
+                place_body_particle(i, B.table[P.body[i]], x, v, P.w, P.x_body0, t_next)
 
     return start_block
 
@@ -898,18 +897,27 @@ def _finish_kernel(spec):
             T2 += r0 * F1 - r1 * F0
         alpha[i, 0], alpha[i, 1], alpha[i, 2] = T0, T1, T2
         if BODIES and not last and not prime:
-            p0, p1, p2, u0, u1, u2 = body_pose(B.table[P.body[i]], P.x_body0[i], t + (step + 2) * dt)
-            x[i, 0], x[i, 1], x[i, 2] = p0, p1, p2
-            v[i, 0], v[i, 1], v[i, 2] = u0, u1, u2
+            place_body_particle(i, B.table[P.body[i]], x, v, w, P.x_body0, t + (step + 2) * dt)
 
     return finish
+
+
+@njit(inline="always", cache=True)
+def place_body_particle(i, body, x, v, w, x_body0, t):
+    """Particle i of a kinematic body at its pose at t. A ramping rotating body also sets the
+    particle's spin to its rate at t (a constant-rate body's spin was set once at build)."""
+    p0, p1, p2, u0, u1, u2, rate = body_pose(body, x_body0[i], t)
+    x[i, 0], x[i, 1], x[i, 2] = p0, p1, p2
+    v[i, 0], v[i, 1], v[i, 2] = u0, u1, u2
+    if body[8] > 0.0 and int(body[0]) == ROTATE:
+        w[i, 0], w[i, 1], w[i, 2] = rate * body[4], rate * body[5], rate * body[6]
 
 
 def _reduction_kernel(spec, layout):
     """Serial part of a step: loads on bodies and walls and the energy audit, over fixed blocks."""
     BODIES, WALLS, AUDIT = spec.bodies, spec.walls, layout.audit
 
-    def reductions(dt, P, B, W, dissipation, wall_part, audit_part, n_blocks):
+    def reductions(t_load, dt, P, B, W, dissipation, wall_part, audit_part, n_blocks):
         if BODIES:
             B.load[:, :] = 0.0
             for q in range(B.members.shape[0]):
@@ -925,7 +933,9 @@ def _reduction_kernel(spec, layout):
                 for c in range(6):
                     B.impulse[b, c] += B.load[b, c] * dt
                 # Power the body puts in: minus the load it receives dotted with its velocity.
-                a0, a1, a2, rate = B.table[b, 4], B.table[b, 5], B.table[b, 6], B.table[b, 7]
+                # (at its rate when the loads were computed, the time of this step's forces)
+                a0, a1, a2 = B.table[b, 4], B.table[b, 5], B.table[b, 6]
+                rate = body_motion(B.table[b], t_load)[1]
                 if int(B.table[b, 0]) == ROTATE:
                     power = -(B.load[b, 3] * a0 + B.load[b, 4] * a1 + B.load[b, 5] * a2) * rate
                 else:

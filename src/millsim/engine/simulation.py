@@ -7,6 +7,7 @@ Simulation allocates their per-particle arrays, keeps them in step with added an
 particles, and hands their hooks to the loop.
 """
 
+import math
 import signal
 import threading
 import time
@@ -18,15 +19,39 @@ import numba
 import numpy as np
 
 from ..util.validation import check_range
-from .kinematics import (B_AXIS, B_KIND, B_RATE, BODY_COLUMNS, BODY_KINDS, W_ACTIVE, W_AXIS,
-                         W_MATERIAL, W_OMEGA, W_POINT, W_RADIUS, WALL_COLUMNS, WALL_KINDS,
-                         wall_contact)
+from .kinematics import (
+    B_AXIS,
+    B_KIND,
+    B_RAMP,
+    B_RATE,
+    BODY_COLUMNS,
+    BODY_KINDS,
+    W_ACTIVE,
+    W_AXIS,
+    W_MATERIAL,
+    W_OMEGA,
+    W_POINT,
+    W_RADIUS,
+    WALL_COLUMNS,
+    WALL_KINDS,
+    wall_contact,
+)
 from .loop import AUDIT_TERMS, ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED, N_AUDIT, Layout
 from .neighbours import build_verlet, wrap_periodic
 from .spec import PhysicsSpec, chunk_runner
-from .state import (Accumulators, BodyArrays, ContactList, RunSettings, WallArrays, allocate,
-                    append_rows, disk_or_sphere_mass, empty_contacts, moment_of_inertia,
-                    select_rows)
+from .state import (
+    Accumulators,
+    BodyArrays,
+    ContactList,
+    RunSettings,
+    WallArrays,
+    allocate,
+    append_rows,
+    disk_or_sphere_mass,
+    empty_contacts,
+    moment_of_inertia,
+    select_rows,
+)
 from .timestep import STEPS_PER_CONTACT_LIMIT, time_step_report
 
 # Below this many particles one thread is faster than opening parallel regions every step
@@ -137,7 +162,9 @@ class Simulation:
         v, w: initial velocities [m/s] and angular velocities [rad/s] (default 0).
         body: kinematic body index per particle (-1 = free; default all free).
         walls: list of dicts ``{kind, point, normal|axis, radius, omega, material}``.
-        bodies: list of dicts ``{kind: rotate|translate, center, axis, rate}``.
+        bodies: list of dicts ``{kind: rotate|translate, center, axis, rate, ramp}`` (``ramp``:
+            seconds from rest to ``rate`` at constant acceleration; 0 or absent: at ``rate`` from
+            the start).
         gravity: acceleration vector [m/s2].
         box: periodic box (origin, lengths per axis) [m]; a length 0 is not periodic.
         skin: Verlet skin [m] (default 0.1 of the mean diameter).
@@ -194,6 +221,12 @@ class Simulation:
         self.tags = {}
         for name, values in (tags or {}).items():
             self.tags[name] = self._tag_array(name, values, n)
+        # Who is who, to follow fragments across snapshots: an id per particle, never reused, and
+        # the id of the particle it broke from (-1: none). Python-side, like the tags: the compiled
+        # loop never sees them, so they cost nothing in a step, with or without breakage.
+        self.particle_ids = np.arange(n, dtype=np.int64)
+        self.parent_ids = np.full(n, -1, dtype=np.int64)
+        self._next_id = n
         self._fields = {m: _model_fields(m, n) for m in (breakage, fluid) if m is not None}
         self.skin = 0.1 * 2.0 * float(np.mean(radius)) if skin is None else float(skin)
         self.time = 0.0
@@ -265,7 +298,9 @@ class Simulation:
         # which is also what the body's power, torque x rate, assumes); a translating one's not.
         for b in np.unique(body[body >= 0]):
             rotating = self.bodies[b, B_KIND] == BODY_KINDS["rotate"]
-            w[body == b] = self.bodies[b, B_RATE] * self.bodies[b, B_AXIS] if rotating else 0.0
+            at_rest = self.bodies[b, B_RAMP] > 0.0  # a ramping body starts from rest
+            w[body == b] = (0.0 if at_rest else self.bodies[b, B_RATE]) * self.bodies[b, B_AXIS] \
+                if rotating else 0.0
         if self.spec.dim == 2:
             w[:, :2] = 0.0  # disks spin about z only
         # Kinematic particles: infinite mass and inertia (they never respond to forces).
@@ -314,6 +349,10 @@ class Simulation:
             table[k, 1:4] = np.asarray(b.get("center", (0, 0, 0)), dtype=float)
             table[k, B_AXIS] = _unit(b.get("axis", (0, 0, 1)), f"bodies[{k}].axis")
             table[k, B_RATE] = float(b.get("rate", 0.0))
+            ramp = float(b.get("ramp", 0.0))
+            if not ramp >= 0.0 or not math.isfinite(ramp):
+                raise ValueError(f"bodies[{k}].ramp: must be a finite time >= 0 s, got {ramp!r}")
+            table[k, B_RAMP] = ramp
         if len(bodies) and not self.spec.bodies:
             raise ValueError("bodies: given but spec.bodies is false")
         return table
@@ -587,16 +626,19 @@ class Simulation:
         self.particles = select_rows(self.particles, keep, n)
         self._W = self._W._replace(hist=self._W.hist[keep])
         self.tags = {name: values[keep] for name, values in self.tags.items()}
+        self.particle_ids, self.parent_ids = self.particle_ids[keep], self.parent_ids[keep]
         for model in self._fields:
             self._fields[model] = select_rows(self._fields[model], keep, n)
             self._publish(model)
         self._after_change(relabelled)
 
-    def add_particles(self, x, radius, material, v=None, w=None, tags=None):
+    def add_particles(self, x, radius, material, v=None, w=None, tags=None, parent_ids=None):
         """Append free particles; the time step bound is re-evaluated (fragments shrink it).
 
         ``tags``: {name: values} for the new particles, for every tag the simulation keeps.
-        Models give the new particles their declared defaults. Returns their indices.
+        ``parent_ids``: for fragments, the ``particle_ids`` of the particles they broke from
+        (default: none, -1). Models give the new particles their declared defaults. The new
+        particles get fresh ids. Returns their indices.
         """
         radius = np.asarray(radius, dtype=float)
         m = len(radius)
@@ -604,12 +646,20 @@ class Simulation:
         tags = dict(tags or {})
         if set(tags) != set(self.tags):
             raise ValueError(f"tags: give values for {sorted(self.tags)}, got {sorted(tags)}")
+        parents = np.asarray(np.full(m, -1) if parent_ids is None else parent_ids, np.int64)
+        if parents.shape != (m,) or (parents < -1).any() or (parents >= self._next_id).any():
+            raise ValueError(f"parent_ids: {m} ids of existing or earlier particles (or -1), got "
+                             f"{parents!r}")
         new = self._make_particles(x, radius, material, v, w, None)
         self.particles = append_rows(self.particles, new, n_old)
         self._W = self._W._replace(hist=np.concatenate(
             [self._W.hist, np.zeros((m, len(self.walls), self.layout.wall_columns))]))
         for name in self.tags:
             self.tags[name] = np.concatenate([self.tags[name], self._tag_array(name, tags[name], m)])
+        self.particle_ids = np.concatenate([self.particle_ids,
+                                            np.arange(self._next_id, self._next_id + m)])
+        self.parent_ids = np.concatenate([self.parent_ids, parents])
+        self._next_id += m
         for model in self._fields:
             self._fields[model] = append_rows(self._fields[model], _model_fields(model, m), n_old)
             self._publish(model)

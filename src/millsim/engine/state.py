@@ -69,7 +69,10 @@ def moment_of_inertia(mass, radius, dim):
 def allocate(x, v, w, radius, inv_mass, inv_inertia, material, body, x_body0, gear, force_sum):
     """Assemble ParticleArrays with C-contiguous, correctly typed arrays and fresh scratch arrays."""
     n = len(radius)
-    as3 = lambda a: np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(n, 3))
+
+    def as3(a):
+        return np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(n, 3))
+
     x = as3(x)
     return ParticleArrays(
         x=x, v=as3(v), w=as3(w), acc=np.zeros((n, 3)), alpha=np.zeros((n, 3)),

@@ -34,9 +34,13 @@ from numba import njit
 from ..engine.integrators import DAMPING_LIMIT, GEAR_OMEGA_DT_LIMIT
 from ..engine.loop import FAST
 from ..engine.models import stable_identity
-from ..engine.timestep import (RAYLEIGH_LIMIT, RAYLEIGH_RECOMMENDED, STEPS_PER_CONTACT_LIMIT,
-                               STEPS_PER_CONTACT_RECOMMENDED, StepBound)
-
+from ..engine.timestep import (
+    RAYLEIGH_LIMIT,
+    RAYLEIGH_RECOMMENDED,
+    STEPS_PER_CONTACT_LIMIT,
+    STEPS_PER_CONTACT_RECOMMENDED,
+    StepBound,
+)
 
 # Column layout of a parameter row (same length for every law so one table serves all).
 P_K_N, P_GAMMA_N, P_GAMMA_T, P_MU_HW = 0, 1, 2, 3

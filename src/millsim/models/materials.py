@@ -6,7 +6,7 @@ range, so that bad input fails before any compilation or simulation starts.
 
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 from scipy.optimize import brentq
@@ -97,7 +97,7 @@ def linear_restitution(zeta, clipped):
     return l1 / (2.0 * zeta - l1) * math.exp(-l1 * t_c)
 
 
-@lru_cache(maxsize=None)
+@cache
 def damping_ratio(restitution, convention="clipped"):
     """Damping ratio zeta of the linear laws whose head-on restitution is ``restitution``."""
     if restitution >= 1.0:
@@ -135,7 +135,7 @@ def hertz_restitution(beta_term, clipped):
     return -float(sol.y_events[0][0][1])
 
 
-@lru_cache(maxsize=None)
+@cache
 def hertz_beta_term(restitution, convention="clipped"):
     """The damping factor 2 sqrt(5/6) |beta| of the Hertz law whose head-on restitution is
     ``restitution``. Unclipped: EDEM's beta = ln e / sqrt(ln^2 e + pi^2), for which the

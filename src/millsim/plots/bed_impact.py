@@ -52,10 +52,10 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
     width = 0.8 / max(len(mats), 1)
     x = np.arange(len(configs))
     for k, mat in enumerate(mats):
-        mean = [float(sub["broken_fraction_mean"].sel(material=mat, rings=r, layers=l)) * 100
-                for r, l, _ in configs]
-        std = [float(sub["broken_fraction_std"].sel(material=mat, rings=r, layers=l)) * 100
-               for r, l, _ in configs]
+        mean = [float(sub["broken_fraction_mean"].sel(material=mat, rings=r, layers=n)) * 100
+                for r, n, _ in configs]
+        std = [float(sub["broken_fraction_std"].sel(material=mat, rings=r, layers=n)) * 100
+               for r, n, _ in configs]
         ax.bar(x + (k - (len(mats) - 1) / 2) * width, mean, width, yerr=np.nan_to_num(std),
                capsize=3, label=str(mat).replace("_", " "))
     ax.set_xticks(x, [c[2] for c in configs], rotation=20, ha="right")

@@ -43,7 +43,8 @@ def probability(ds, out):
                 continue
             ax.errorbar(sub["specific_energy"][ok], sub["fraction"][ok],
                         yerr=[sub["fraction"][ok] - sub["ci_lo"][ok], sub["ci_hi"][ok] - sub["fraction"][ok]],
-                        fmt=markers.get(str(mode), "^"), color=colours(j), mfc="none" if mode == "drop_weight" else None,
+                        fmt=markers.get(str(mode), "^"), color=colours(j),
+                        mfc="none" if mode == "drop_weight" else None,
                         capsize=2, ls="none", label=f"{mat_name}: {mode} (sim., 95% CI)")
     ax.set(xscale="log", xlabel="input specific energy Ek/m [J/kg]", ylabel="fraction broken [1]",
            ylim=(-0.02, 1.02), title="Breakage probability: simulation vs model (seed 002 Fig. 8)")

@@ -22,14 +22,21 @@ from dataclasses import replace
 
 import numpy as np
 
-from .force_chains import chain_statistics, find_chains
-from ..util.stats import steady_rate
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..models import Interaction, Material, MaterialTable, WeibullModel
 from ..models.breakage.weibull import WeibullSplit
-from .base import (TIME_STEP_PARAMS, Param, Scene, check_particle_memory, record_steps, register,
-                   step_policy)
+from ..util.stats import steady_rate
+from .base import (
+    TIME_STEP_PARAMS,
+    Param,
+    Scene,
+    check_particle_memory,
+    record_steps,
+    register,
+    step_policy,
+)
 from .driver import Case, Series
+from .force_chains import chain_statistics, find_chains
 
 G = 9.81
 RANDOM_PACKING_2D = 0.82  # area fraction of a random 2D disk packing (filling -> solid area)
@@ -54,7 +61,8 @@ PARAMS = (
     Param("fragmentation", True, "Weibull fragmentation on/off"),
     Param("weibull_c", 1e-9, "c of P = 1 - exp(-c R^-3 F^4); F_1/2 = (ln2 R^3/c)^(1/4)", "m3 N-4", 0.0, lo_open=True),
     Param("twin_repulsion", 1e-3, "constant force separating twin fragments (eqs 19-20)", "N", 0.0),
-    Param("chain_threshold", 0.01, "force-chain criterion 2: sum of normal forces on a grain (1000 g cm s-2)", "N", 0.0),
+    Param("chain_threshold", 0.01,
+          "force-chain criterion 2: sum of normal forces on a grain (1000 g cm s-2)", "N", 0.0),
     Param("integrator", "gear", "time integrator (the paper: Gear 6th order)", choices=("gear", "verlet")),
     # the paper's Gear step: t_c/25 of the smallest fragment pair (recommended: t_c/50), within
     # the tangential-dashpot limit of the Haff-Werner friction (engine.timestep)
@@ -142,7 +150,8 @@ def _random_grains(values, count, rng, occupied_x, occupied_r):
         rad = (big - r) * math.sqrt(rng.uniform())
         phi = rng.uniform(0, 2 * math.pi)
         p = np.array([rad * math.cos(phi), rad * math.sin(phi)])
-        blocked = p[1] > level or (len(ox) and (np.linalg.norm(np.asarray(ox) - p, axis=1) < np.asarray(orad) + r).any())
+        blocked = p[1] > level or (
+            len(ox) and (np.linalg.norm(np.asarray(ox) - p, axis=1) < np.asarray(orad) + r).any())
         if blocked:
             misses += 1
             if misses > 400:
@@ -283,8 +292,11 @@ class BallMillCase(Case):
         v = self.v
         edges = self.grid_edges
         centres = 0.5 * (edges[1:] + edges[:-1])
-        coords = {"gx": ("gx", centres, {"units": "m", "long_name": "map cell centre x"}),
-                  "gy": ("gy", centres, {"units": "m", "long_name": "map cell centre y"})}
+        # CF axes: x is horizontal (X), y is vertical (Z, gravity along -y)
+        coords = {"gx": ("gx", centres, {"units": "m", "long_name": "map cell centre x",
+                                         "axis": "X"}),
+                  "gy": ("gy", centres, {"units": "m", "long_name": "map cell centre y",
+                                         "axis": "Z", "positive": "up"})}
         data = {}
         with np.errstate(invalid="ignore"):
             data["pressure"] = (("gy", "gx"), np.where(self.pressure_n > 0, self.pressure_sum
@@ -301,11 +313,18 @@ class BallMillCase(Case):
             self._fracture_outputs(data, coords)
         else:
             stats = chain_statistics(self.chains)
-            coords["chain_length"] = ("chain_length", stats["lengths"], {"units": "1", "long_name": "grains in the chain"})
-            coords["chain_position"] = ("chain_position", stats["position"], {"units": "1", "long_name": "relative position along the chain"})
-            data["chain_count"] = ("chain_length", stats["count"], {"units": "1", "long_name": "chains per length (all records)"})
-            data["chain_max_pressure"] = ("chain_length", stats["max_pressure"], {"units": "Pa", "long_name": "mean of the largest grain pressure in a chain"})
-            data["chain_force_profile"] = ("chain_position", stats["load_profile"], {"units": "N", "long_name": "mean normal-force sum vs position in chain"})
+            coords["chain_length"] = ("chain_length", stats["lengths"],
+                                      {"units": "1", "long_name": "grains in the chain"})
+            coords["chain_position"] = ("chain_position", stats["position"],
+                                        {"units": "1", "long_name": "relative position along the chain"})
+            data["chain_count"] = ("chain_length", stats["count"],
+                                   {"units": "1", "long_name": "chains per length (all records)"})
+            data["chain_max_pressure"] = (
+                "chain_length", stats["max_pressure"],
+                {"units": "Pa", "long_name": "mean of the largest grain pressure in a chain"})
+            data["chain_force_profile"] = (
+                "chain_position", stats["load_profile"],
+                {"units": "N", "long_name": "mean normal-force sum vs position in chain"})
         extra = {"critical_speed_rev_s": self.n_c, "rotation_rate_rad_s": self.omega}
         return data, coords, extra
 
@@ -329,10 +348,16 @@ class BallMillCase(Case):
         cell_area = (edges[1] - edges[0]) ** 2
         data["fracture_frequency"] = (("gy", "gx"), hist / (window * cell_area),
                                       {"units": "s-1 m-2", "long_name": "fracture events per time and area"})
-        coords["snapshot"] = ("snapshot", np.array(self.snapshots), {"units": "s", "long_name": "size snapshot time"})
-        coords["size_class"] = ("size_class", 0.5 * (self.size_edges[1:] + self.size_edges[:-1]),
-                                {"units": "m", "long_name": "grain radius class centre"})
-        data["size_class_edges"] = ("size_class_edge", self.size_edges, {"units": "m", "long_name": "radius class edges"})
+        coords["snapshot"] = ("snapshot", np.array(self.snapshots),
+                              {"units": "s", "long_name": "size snapshot time",
+                               "standard_name": "time", "axis": "T"})
+        edges = self.size_edges
+        coords["size_class"] = ("size_class", 0.5 * (edges[1:] + edges[:-1]),
+                                {"units": "m", "long_name": "grain radius class centre",
+                                 "bounds": "size_class_bounds"})
+        coords["size_class_bounds"] = (("size_class", "bound"),
+                                       np.column_stack([edges[:-1], edges[1:]]),
+                                       {"units": "m", "long_name": "grain radius class bounds"})
         data["size_distribution"] = (("snapshot", "size_class"),
                                      np.array(self.size_dist).reshape(-1, v["size_classes"]),
                                      {"units": "kg", "long_name": "grain mass per radius class"})

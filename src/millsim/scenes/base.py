@@ -12,11 +12,11 @@ import math
 import numbers
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 from ..engine import BYTES_PER_PARTICLE, StepPolicy
-
 from ..util.validation import check_range
 
 # Integer parameters are stored as 64-bit netCDF attributes; a float holds every integer only up
@@ -211,7 +211,8 @@ class RunContext:
             return
         p = sim.particles
         self.snapshots.write(sim.time, p.x, p.radius, p.v, angular_velocity=p.w,
-                             kinematic=(p.body >= 0).astype("int32"))
+                             kinematic=(p.body >= 0).astype("int32"),
+                             particle_id=sim.particle_ids, parent_id=sim.parent_ids)
 
 
 REGISTRY: dict = {}

@@ -18,9 +18,16 @@ from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.state import disk_or_sphere_mass
 from ..models import Interaction, Material, MaterialTable
 from ..models.contact import linear_collision_time
-from ..models.materials import (damping_ratio, effective_moduli, hertz_beta_term,
-                                linear_restitution)
-from .base import CONVENTION_PARAM, SOLID_PARAMS, TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from ..models.materials import damping_ratio, effective_moduli, hertz_beta_term, linear_restitution
+from .base import (
+    CONVENTION_PARAM,
+    SOLID_PARAMS,
+    TIME_STEP_PARAMS,
+    Param,
+    Scene,
+    register,
+    step_policy,
+)
 from .driver import Case, Series
 
 HERTZ_TIME_FACTOR = 2.9433  # t_c = 2 (xi_max / v) int_0^1 dx / sqrt(1 - x^(5/2))
@@ -197,8 +204,11 @@ class CollisionCase(Case):
         data = {
             "restitution": ((), e_meas, {"units": "1", "long_name": "measured coefficient of restitution"}),
             "contact_time": ((), t_end - t_start, {"units": "s", "long_name": "measured contact duration"}),
-            "restitution_analytic": ((), self.e_ref, {"units": "1", "long_name": "analytic coefficient of restitution"}),
-            "contact_time_analytic": ((), self.t_ref, {"units": "s", "long_name": "analytic contact duration (NaN: none)"}),
+            "restitution_analytic": (
+                (), self.e_ref, {"units": "1", "long_name": "analytic coefficient of restitution"}),
+            "contact_time_analytic": (
+                (), self.t_ref,
+                {"units": "s", "long_name": "analytic contact duration (NaN: none)"}),
             "max_overlap": ((), float(overlap.max()), {"units": "m", "long_name": "largest overlap"}),
         }
         return data, {}, {}

@@ -94,8 +94,11 @@ class Case:
             return {}, {}
         data = {s.name: ("time", self.recorded(s.name), {"units": s.units, "long_name": s.long_name})
                 for s in self.series}
+        # elapsed simulated time: CF's standard name, with the table's canonical unit (no
+        # calendar date to count from)
         coords = {"time": ("time", self.recorded_times(),
-                           {"units": "s", "long_name": self.time_long_name})}
+                           {"units": "s", "long_name": self.time_long_name,
+                            "standard_name": "time", "axis": "T"})}
         return data, coords
 
 
@@ -226,7 +229,8 @@ def drive(scene, values, ctx, out=None):
     summaries, coords, extra = case.finish()
     data, series_coords = case.series_dataset()
     data.update(summaries)
-    ds = xr.Dataset(data, coords={**series_coords, **coords}, attrs=dict(case.attrs))
+    ds = xr.Dataset(data, coords={**series_coords, **coords},
+                    attrs={"title": f"millsim {scene.name} case: {scene.summary}", **case.attrs})
     if progress:
         progress.finish(steps_total)
     sim = case.sim

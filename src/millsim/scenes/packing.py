@@ -92,7 +92,10 @@ def read_state(path):
     missing = {"x", "y", "z"} - set(names)
     if missing:
         raise ValueError(f"init_file: columns {sorted(missing)} missing in {path}")
-    cols = lambda keys: np.column_stack([data[k] for k in keys]) if set(keys) <= set(names) else None
+
+    def cols(keys):
+        return np.column_stack([data[k] for k in keys]) if set(keys) <= set(names) else None
+
     return cols(("x", "y", "z")), cols(("vx", "vy", "vz")), cols(("omegax", "omegay", "omegaz"))
 
 
@@ -185,11 +188,15 @@ class PackingCase(Case):
         data = {
             "particle_steps_per_second": ((), sim.n_particles * v["steps"] / timed_wall,
                                           {"units": "s-1", "long_name": "throughput of the timed stage"}),
-            "timed_wall_time": ((), timed_wall, {"units": "s", "long_name": "wall time of the timed stage (compiled loop only)"}),
+            "timed_wall_time": (
+                (), timed_wall,
+                {"units": "s", "long_name": "wall time of the timed stage (compiled loop only)"}),
         }
         if self.drum:
             torque = (sim.angular_impulse(wall=0) - self.angular_start)[1] / elapsed
-            data["shell_torque"] = ((), torque, {"units": "N m", "long_name": "mean torque of the charge on the shell about its axis (the drive supplies the opposite)"})
+            data["shell_torque"] = ((), torque, {
+                "units": "N m", "long_name": "mean torque of the charge on the shell about its axis "
+                                             "(the drive supplies the opposite)"})
             data["shell_power"] = ((), (sim.work(wall=0) - self.work_start) / elapsed,
                                   {"units": "W", "long_name": "mean power the shell puts into the charge"})
         return data, {}, {"list_rebuilds": int(sim.counters[0]), "n_particles": sim.n_particles}

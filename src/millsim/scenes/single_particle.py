@@ -57,13 +57,12 @@ import numpy as np
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..models import Interaction, Material, MaterialTable, TavaresModel
 from ..models.breakage import tavares
+from ..models.breakage import tavares_predictions as tv
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
 from ..models.contact import hertz_contact_time
 from ..models.materials import effective_moduli
-from ..models.breakage import tavares_predictions as tv
 from ..util.stats import binomial_interval, bootstrap_interval
-from .base import (TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register,
-                   step_policy)
+from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
 from .driver import Case
 
 SPEC = PhysicsSpec(dim=3, walls=True, gravity=False)
@@ -426,38 +425,79 @@ class SingleParticleCase(Case):
         lo, hi = binomial_interval(nb, n)
         analytic = float(tv.breakage_probability(s.mat, d0, s.specific_energy, s.share))
         data = {
-            "particle_broken": ("particle", broken.astype(np.int8), {"units": "1", "long_name": "broke (1) or not (0)"}),
-            "particle_broken_at_impact": ("particle", books.broken_at, {"units": "1", "long_name": "impact at which it broke (0: never)"}),
-            "particle_fracture_energy_initial": ("particle", e_initial, {"units": "J kg-1", "long_name": "fracture energy drawn at creation (absorbed basis)"}),
-            "particle_fracture_energy_final": ("particle", e_final, {"units": "J kg-1", "long_name": "damaged fracture energy at the end (NaN: broke)"}),
-            "particle_fracture_energy_at_break": ("particle", books.e_break, {"units": "J kg-1", "long_name": "(damaged) fracture energy the breaking event reached"}),
-            "particle_absorbed_energy": ("particle", absorbed_first, {"units": "J kg-1", "long_name": "absorbed specific energy of the first event (at breakage if it broke; from its damage, eq 6 inverted, if not)"}),
-            "particle_t10_primary": ("particle", books.t10_primary, {"units": "%", "long_name": "t10' of its primary breakage event (eq 8)"}),
+            "particle_broken": (
+                "particle", broken.astype(np.int8),
+                {"units": "1", "long_name": "broke (1) or not (0)"}),
+            "particle_broken_at_impact": (
+                "particle", books.broken_at,
+                {"units": "1", "long_name": "impact at which it broke (0: never)"}),
+            "particle_fracture_energy_initial": (
+                "particle", e_initial,
+                {"units": "J kg-1",
+                 "long_name": "fracture energy drawn at creation (absorbed basis)"}),
+            "particle_fracture_energy_final": (
+                "particle", e_final,
+                {"units": "J kg-1",
+                 "long_name": "damaged fracture energy at the end (NaN: broke)"}),
+            "particle_fracture_energy_at_break": (
+                "particle", books.e_break,
+                {"units": "J kg-1",
+                 "long_name": "(damaged) fracture energy the breaking event reached"}),
+            "particle_absorbed_energy": (
+                "particle", absorbed_first,
+                {"units": "J kg-1",
+                 "long_name": "absorbed specific energy of the first event (at breakage if it "
+                              "broke; from its damage, eq 6 inverted, if not)"}),
+            "particle_t10_primary": (
+                "particle", books.t10_primary,
+                {"units": "%", "long_name": "t10' of its primary breakage event (eq 8)"}),
             "n_particles": ((), n, {"units": "1", "long_name": "particles stressed"}),
             "n_broken": ((), nb, {"units": "1", "long_name": "particles broken"}),
             "broken_fraction": ((), nb / n, {"units": "1", "long_name": "fraction broken"}),
             "broken_fraction_ci_lo": ((), float(lo), {"units": "1", "long_name": "95% Clopper-Pearson lower bound"}),
             "broken_fraction_ci_hi": ((), float(hi), {"units": "1", "long_name": "95% Clopper-Pearson upper bound"}),
-            "specific_energy": ((), s.specific_energy, {"units": "J kg-1", "long_name": "set input (stressing) specific energy Ek/m"}),
-            "energy_ratio": ((), s.specific_energy / tv.stressing_median(s.mat, d0, s.share), {"units": "1", "long_name": "Ek/m over the stressing-basis median E50"}),
-            "absorbed_share": ((), s.share, {"units": "1", "long_name": "absorbed share of the input energy, eq 4 vs steel"}),
-            "impact_speed": ((), s.speed, {"units": "m s-1", "long_name": "speed of the particle (single, repeated) or striker (drop_weight)"}),
-            "median_fracture_energy": ((), float(tavares.median_fracture_energy(s.mat, d0)), {"units": "J kg-1", "long_name": "E50 (absorbed basis, eq 3)"}),
+            "specific_energy": (
+                (), s.specific_energy,
+                {"units": "J kg-1", "long_name": "set input (stressing) specific energy Ek/m"}),
+            "energy_ratio": (
+                (), s.specific_energy / tv.stressing_median(s.mat, d0, s.share),
+                {"units": "1", "long_name": "Ek/m over the stressing-basis median E50"}),
+            "absorbed_share": (
+                (), s.share,
+                {"units": "1", "long_name": "absorbed share of the input energy, eq 4 vs steel"}),
+            "impact_speed": (
+                (), s.speed,
+                {"units": "m s-1",
+                 "long_name": "speed of the particle (single, repeated) or striker (drop_weight)"}),
+            "median_fracture_energy": (
+                (), float(tavares.median_fracture_energy(s.mat, d0)),
+                {"units": "J kg-1", "long_name": "E50 (absorbed basis, eq 3)"}),
             "gamma_used": ((), s.mat.gamma, {"units": "1", "long_name": "damage coefficient used"}),
-            "converged": (("impact",), np.array(converged, np.int8), {"units": "1", "long_name": "impact ended before the time cap"}),
+            "converged": (
+                ("impact",), np.array(converged, np.int8),
+                {"units": "1", "long_name": "impact ended before the time cap"}),
         }
         if mode == "repeated":
             cum = np.array(per_impact, float)
             ilo, ihi = binomial_interval(cum, n)
             data.update(
-                impact_broken_fraction=(("impact",), cum / n, {"units": "1", "long_name": "cumulative fraction broken after each impact"}),
-                impact_broken_fraction_ci_lo=(("impact",), ilo, {"units": "1", "long_name": "95% Clopper-Pearson lower"}),
-                impact_broken_fraction_ci_hi=(("impact",), ihi, {"units": "1", "long_name": "95% Clopper-Pearson upper"}),
-                impact_broken_fraction_analytic=(("impact",), tv.repeated_impact_broken(
-                    s.mat, d0, s.specific_energy, s.share, impacts), {"units": "1", "long_name": "damage model, eqs 1-6"}),
+                impact_broken_fraction=(
+                    ("impact",), cum / n,
+                    {"units": "1", "long_name": "cumulative fraction broken after each impact"}),
+                impact_broken_fraction_ci_lo=(
+                    ("impact",), ilo, {"units": "1", "long_name": "95% Clopper-Pearson lower"}),
+                impact_broken_fraction_ci_hi=(
+                    ("impact",), ihi, {"units": "1", "long_name": "95% Clopper-Pearson upper"}),
+                impact_broken_fraction_analytic=(
+                    ("impact",),
+                    tv.repeated_impact_broken(s.mat, d0, s.specific_energy, s.share, impacts),
+                    {"units": "1", "long_name": "damage model, eqs 1-6"}),
             )
             analytic = float(data["impact_broken_fraction_analytic"][1][-1])
-        data["broken_fraction_analytic"] = ((), analytic, {"units": "1", "long_name": "analytic probability (eqs 1-3; after all impacts for repeated)"})
+        data["broken_fraction_analytic"] = (
+            (), analytic,
+            {"units": "1",
+             "long_name": "analytic probability (eqs 1-3; after all impacts for repeated)"})
         ev = np.array(books.events, dtype=float).reshape(-1, 10)
         for col, (name, unit, long) in enumerate([
                 ("event_time", "s", "time of breakage"), ("event_particle", "1", "original particle"),
@@ -470,7 +510,9 @@ class SingleParticleCase(Case):
                 ("event_progeny", "1", "resolved progeny spheres"),
                 ("event_fines_mass", "kg", "unresolved fines (dummy class) mass")]):
             data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
-        data["t10_primary_model"] = ((), tavares.t10_min(s.mat), {"units": "%", "long_name": "eq 9: t10' at breakage at the fracture energy"})
+        data["t10_primary_model"] = (
+            (), tavares.t10_min(s.mat),
+            {"units": "%", "long_name": "eq 9: t10' at breakage at the fracture energy"})
         coords = {"particle": ("particle", np.arange(n), {"units": "1", "long_name": "particle index"}),
                   "impact": ("impact", np.arange(1, len(converged) + 1), {"units": "1", "long_name": "impact number"}),
                   "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
@@ -486,20 +528,44 @@ class SingleParticleCase(Case):
             blo, bhi = bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
             coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
             data.update(
-                particle_product_t10=("particle", t10_each, {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
-                particle_progeny=("particle", np.bincount(s.ids[s.ids >= 0], minlength=n), {"units": "1", "long_name": "resolved spheres it ended as"}),
-                product_passing=("sieve", passing, {"units": "%", "long_name": "cumulative % passing of the broken particles' product (fines included, resolved-unbreakable spheres by eq 13)"}),
-                product_passing_spheres=("sieve", passing_kept, {"units": "%", "long_name": "the same with resolved-unbreakable spheres kept at their size (seed 002 Fig 13)"}),
-                unbreakable_records=((), int(recorded.sum()), {"units": "1", "long_name": "resolved-unbreakable spheres that reached their fracture energy (eq 13 applied)"}),
-                product_passing_model=("sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
-                                       {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
+                particle_product_t10=(
+                    "particle", t10_each,
+                    {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
+                particle_progeny=(
+                    "particle", np.bincount(s.ids[s.ids >= 0], minlength=n),
+                    {"units": "1", "long_name": "resolved spheres it ended as"}),
+                product_passing=(
+                    "sieve", passing,
+                    {"units": "%",
+                     "long_name": "cumulative % passing of the broken particles' product (fines "
+                                  "included, resolved-unbreakable spheres by eq 13)"}),
+                product_passing_spheres=(
+                    "sieve", passing_kept,
+                    {"units": "%",
+                     "long_name": "the same with resolved-unbreakable spheres kept at their size "
+                                  "(seed 002 Fig 13)"}),
+                unbreakable_records=(
+                    (), int(recorded.sum()),
+                    {"units": "1",
+                     "long_name": "resolved-unbreakable spheres that reached their fracture "
+                                  "energy (eq 13 applied)"}),
+                product_passing_model=(
+                    "sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
+                    {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
                 product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
                 product_t10_ci_lo=((), blo, {"units": "%", "long_name": "95% bootstrap lower"}),
                 product_t10_ci_hi=((), bhi, {"units": "%", "long_name": "95% bootstrap upper"}),
-                product_t10_model=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share), {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
-                product_t10_model_all=((), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"), {"units": "%", "long_name": "eq 7, E50b = median of all"}),
+                product_t10_model=(
+                    (), tv.t10_model(s.mat, d0, s.specific_energy, s.share),
+                    {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
+                product_t10_model_all=(
+                    (), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"),
+                    {"units": "%", "long_name": "eq 7, E50b = median of all"}),
                 fines_mass=((), replace.fines_mass, {"units": "kg", "long_name": "unresolved fines mass"}),
-                mass_balance_error=((), balance, {"units": "1", "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
+                mass_balance_error=(
+                    (), balance,
+                    {"units": "1",
+                     "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
             )
         extra = {"case_seed": s.case_seed, "contact_time_s": s.t_contact, "gravity": "off",
                  "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"}

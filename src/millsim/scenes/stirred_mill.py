@@ -28,12 +28,12 @@ from ..models.contact import linear_contact_time
 from ..models.lubrication import SCHEMES, TOLERANCE, check_lubrication_params
 from ..models.materials import damping_ratio
 from ..util.stats import block_mean_ci
-from .base import (TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register,
-                   step_policy)
+from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
 from .driver import Case, Series
 
 G = 9.81
 AXIS = np.array([1.0, 0.0, 0.0])
+SHAFT_WALL = 1  # index of the shaft in build()'s walls
 TYPOLOGY = ("impact", "torsion", "shearing", "rolling")
 AUDIT = ("contact_normal_damping", "contact_tangential_translation", "contact_tangential_rotation",
          "lubrication_normal", "lubrication_tangential")
@@ -93,6 +93,10 @@ PARAMS = (
     Param("revolutions", 8.0, "simulated agitator revolutions", "1", 0.0, lo_open=True),
     Param("transient_revolutions", 3.0, "revolutions always excluded from steady-state "
           "statistics (the detected steady state may start later)", "1", 0.0),
+    Param("ramp_revolutions", 0.0, "start-up: the agitator accelerates from rest to rpm at a "
+          "constant rate over the time of this many revolutions at full speed (0: full speed from "
+          "the start; a lattice start at 2500 rpm and above needs one); within the transient",
+          "1", 0.0),
     Param("records_per_revolution", 40, "torque/power records per revolution", "1", 4),
     Param("initial_swirl", 0.1, "initial bead velocity as a fraction of rigid rotation", "1", 0.0,
           1.0),
@@ -114,6 +118,9 @@ def _check(values):
         raise ValueError("bead_diameter_min: must not exceed bead_diameter_max")
     if values["transient_revolutions"] >= values["revolutions"]:
         raise ValueError("transient_revolutions: must be smaller than revolutions")
+    if values["ramp_revolutions"] > values["transient_revolutions"]:
+        raise ValueError("ramp_revolutions: the start-up must lie within transient_revolutions "
+                         f"({values['transient_revolutions']:g})")
     if values["shaft_radius"] >= values["disk_radius"] or values["disk_radius"] >= values["chamber_radius"]:
         raise ValueError("disk_radius: need shaft_radius < disk_radius < chamber_radius")
     if values["holes"] and not (values["shaft_radius"] < values["hole_pitch_radius"] - values["hole_radius"]
@@ -151,6 +158,7 @@ def geometry(values):
     g["n_beads"] = values["n_beads"] or int(round(values["filling"] * g["void_volume"] / g["bead_volume"]))
     g["omega"] = values["rpm"] * 2 * math.pi / 60
     g["tip_speed"] = g["omega"] * g["disk_radius"]
+    g["ramp"] = values["ramp_revolutions"] * 60.0 / values["rpm"]  # start-up time [s]
     return g
 
 
@@ -206,8 +214,8 @@ def _place_beads(values, g, disk_x, disk_r, rng):
     cells = np.arange(-math.ceil(R / a) - 1, math.ceil(R / a) + 2)
     cx = np.arange(0, math.ceil((hi_x - lo_x) / a) + 1)
     base = np.array([[0, 0, 0], [0, 0.5, 0.5], [0.5, 0, 0.5], [0.5, 0.5, 0]])
-    I, J, K = np.meshgrid(cx, cells, cells, indexing="ij")
-    corner = np.column_stack([I.ravel(), J.ravel(), K.ravel()]).astype(float)
+    ci, cj, ck = np.meshgrid(cx, cells, cells, indexing="ij")
+    corner = np.column_stack([ci.ravel(), cj.ravel(), ck.ravel()]).astype(float)
     lattice = ((corner[:, None, :] + base[None]) * a).reshape(-1, 3)
     tree = cKDTree(disk_x) if len(disk_x) else None
     best = None
@@ -260,14 +268,15 @@ def build(values):
     walls = [dict(kind="cylinder_inner", point=(0, 0, 0), axis=AXIS, radius=g["chamber_radius"],
                   material="wall"),
              dict(kind="cylinder_outer", point=(0, 0, 0), axis=AXIS, radius=g["shaft_radius"],
-                  omega=omega, material="agitator")]
+                  omega=0.0 if g["ramp"] else omega, material="agitator")]
     if not values["slice"]:
         walls += [dict(kind="plane", point=(0, 0, 0), normal=(1, 0, 0), material="wall"),
                   dict(kind="plane", point=(g["length"], 0, 0), normal=(-1, 0, 0), material="wall")]
     periodic = dict(box=((g["x_lo"], 0, 0), (g["length"], 0, 0))) if values["slice"] else {}
     r_min = 0.5 * values["bead_diameter_min"]
     sim = Simulation(spec, table, x=x, radius=radius, material=material, v=vel, w=w, body=body,
-                     walls=walls, bodies=[dict(kind="rotate", center=(0, 0, 0), axis=AXIS, rate=omega)],
+                     walls=walls, bodies=[dict(kind="rotate", center=(0, 0, 0), axis=AXIS, rate=omega,
+                                               ramp=g["ramp"])],
                      gravity=(0.0, 0.0, -G), skin=values["skin"],
                      step=step_policy(values, impact_speed=max(1.0, g["tip_speed"])),
                      guards=Guards(max_overlap=values["max_overlap"],
@@ -300,7 +309,7 @@ def elastic_energy(sim, k_n, k_t):
     tangential += 0.5 * k_t * float((sim.wall_hist[:, :, 0:3] ** 2).sum())
     p = sim.particles
     free = sim.free
-    for iw, wall in enumerate(sim.walls):
+    for wall in sim.walls:
         d = p.x[free] - wall[1:4]
         r = p.radius[free]
         if int(wall[0]) == PLANE:
@@ -493,6 +502,12 @@ class StirredMillCase(Case):
 
     def after_chunk(self):
         sim = self.sim
+        ramp = self.g["ramp"]
+        if ramp and sim.time < ramp:
+            # The shaft is an analytic wall with a constant surface speed: it follows the
+            # agitator body's ramp chunk by chunk, at the rate of the next chunk's middle.
+            t_mid = sim.time + 0.5 * self.chunk() * sim.dt
+            sim.set_wall(SHAFT_WALL, omega=self.g["omega"] * min(1.0, t_mid / ramp))
         if self.window_start is None:
             self._record()
             if sim.step >= self.transient:
@@ -541,8 +556,11 @@ class StirredMillCase(Case):
             "audit_term": var("audit_term", np.array(AUDIT), "1", "dissipation term of the engine audit"),
             "region": var("region", np.array(REGIONS), "1",
                           "region: radial ring 1 (inner) - 3 (outer) x F(ront)/C(entre)/B(ack) along x"),
-            "gy": var("gy", centres, "m", "coarse-graining cell centre y"),
-            "gz": var("gz", centres, "m", "coarse-graining cell centre z"),
+            # CF axes: y horizontal, z vertical (gravity along -z)
+            "gy": ("gy", centres, {"units": "m", "long_name": "coarse-graining cell centre y",
+                                   "axis": "Y"}),
+            "gz": ("gz", centres, {"units": "m", "long_name": "coarse-graining cell centre z",
+                                   "axis": "Z", "positive": "up"}),
         }
         data = {
             "net_power": var((), p_mean, "W", "steady-state mean net power"),

@@ -1,9 +1,11 @@
 """Interval statistics shared by scene summaries and analysis (pure numpy/scipy).
 
 - ``binomial_interval``: a proportion k/n (Clopper-Pearson, exact; or Wilson);
-- ``bootstrap_interval``: the (weighted) mean of values, percentile bootstrap;
-- ``block_mean_ci``: the mean of a correlated time series from block means (Student t);
-- ``steady_rate``: an event rate over a window from block counts (Student t).
+- ``bootstrap_interval``: the mean of values, percentile bootstrap (``scipy.stats.bootstrap``);
+- ``block_mean_interval``: the mean of block means, Student t: the one interval of correlated
+  records, used by
+- ``block_mean_ci``: the mean of a correlated time series, from its block means, and
+- ``steady_rate``: an event rate over a window, from the rates of its blocks.
 """
 
 import math
@@ -36,34 +38,47 @@ def binomial_interval(k, n, level=LEVEL, method="clopper_pearson"):
     raise ValueError(f"method: {method!r} is not clopper_pearson or wilson")
 
 
-def bootstrap_interval(values, weights=None, level=LEVEL, resamples=2000, seed=0):
-    """Percentile bootstrap interval of the (weighted) mean of ``values``: (lo, hi)."""
+def bootstrap_interval(values, level=LEVEL, resamples=9999, seed=0):
+    """Percentile bootstrap interval of the mean of ``values``: (lo, hi).
+
+    ``scipy.stats.bootstrap`` with a generator seeded by ``seed``, so a case gives the same
+    interval every run. Fewer than two values give no interval: (NaN, NaN).
+    """
     values = np.asarray(values, dtype=float)
-    if values.size == 0:
+    if values.size < 2:
         return math.nan, math.nan
-    w = np.ones_like(values) if weights is None else np.asarray(weights, dtype=float)
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, values.size, size=(resamples, values.size))
-    means = (values[idx] * w[idx]).sum(1) / w[idx].sum(1)
-    a = 1.0 - level
-    return float(np.quantile(means, a / 2)), float(np.quantile(means, 1 - a / 2))
+    ci = stats.bootstrap((values,), np.mean, n_resamples=resamples, confidence_level=level,
+                         method="percentile", rng=np.random.default_rng(seed)).confidence_interval
+    return float(ci.low), float(ci.high)
 
 
-def block_mean_ci(series, blocks, confidence=0.95):
-    """Mean of a time series and the Student-t half-width from ``blocks`` block means."""
+def block_mean_interval(block_means, confidence=LEVEL):
+    """Mean of ``block_means`` and the half-width of its Student-t interval.
+
+    The blocks are taken as independent samples, which holds when each is much longer than the
+    correlation time of the record they cut. Fewer than two blocks give a NaN half-width.
+    """
+    b = np.asarray(block_means, dtype=float)
+    if b.size < 2:
+        return float(b.mean()) if b.size else math.nan, math.nan
+    return float(b.mean()), float(stats.t.ppf(0.5 + confidence / 2, b.size - 1) * stats.sem(b))
+
+
+def block_mean_ci(series, blocks, confidence=LEVEL):
+    """Mean of a time series and the half-width of its interval from ``blocks`` block means
+    (:func:`block_mean_interval`; blocks of unequal length by one sample when ``blocks`` does
+    not divide the series)."""
     x = np.asarray(series, dtype=float)
     blocks = max(2, min(blocks, len(x)))
-    means = np.array([c.mean() for c in np.array_split(x, blocks)])
-    sem = means.std(ddof=1) / math.sqrt(blocks)
-    return float(x.mean()), float(stats.t.ppf(0.5 + confidence / 2, blocks - 1) * sem)
+    _, half = block_mean_interval([c.mean() for c in np.array_split(x, blocks)], confidence)
+    return float(x.mean()), half
 
 
-def steady_rate(event_times, t_start, t_end, blocks=10, confidence=0.95):
+def steady_rate(event_times, t_start, t_end, blocks=10, confidence=LEVEL):
     """Mean event rate over [t_start, t_end] and the half-width of its confidence interval.
 
-    The window is cut into ``blocks`` equal blocks; the block rates are treated as independent
-    samples (blocks much longer than the correlation time of the charge motion), and the interval
-    is Student-t on their mean.
+    The window is cut into ``blocks`` equal blocks; the interval is :func:`block_mean_interval`
+    of the block rates (blocks much longer than the correlation time of the charge motion).
 
     Returns:
         (rate [1/s], half_width [1/s], block_rates)
@@ -73,9 +88,5 @@ def steady_rate(event_times, t_start, t_end, blocks=10, confidence=0.95):
     edges = np.linspace(t_start, t_end, blocks + 1)
     counts, _ = np.histogram(np.asarray(event_times, dtype=float), bins=edges)
     block_rates = counts / np.diff(edges)
-    mean = float(block_rates.mean())
-    if blocks < 2:
-        return mean, float("nan"), block_rates
-    sem = float(block_rates.std(ddof=1)) / np.sqrt(blocks)
-    half = float(stats.t.ppf(0.5 + confidence / 2, blocks - 1)) * sem
+    mean, half = block_mean_interval(block_rates, confidence)
     return mean, half, block_rates

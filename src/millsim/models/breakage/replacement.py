@@ -24,7 +24,8 @@ its damaged fracture energy) and stops the chunk there; :class:`TavaresReplaceme
 - keeps the books: unresolved fines mass, one record per breakage event and per recorded event;
 - gives the progeny the Simulation's per-particle tags: each inherits its parent's, except
   ``generation`` (the parent's + 1), ``dummy`` (True for dummy spheres) and ``event_t10`` (the
-  t10' of the event that made it), when the simulation keeps tags of those names.
+  t10' of the event that made it), when the simulation keeps tags of those names; and the
+  parent's id as their ``parent_ids`` (``Simulation.particle_ids``).
 """
 
 from dataclasses import dataclass, field
@@ -171,8 +172,10 @@ class TavaresReplacement:
         if "event_t10" in tags:
             tags["event_t10"] = np.repeat([ev.t10 for ev in self.events[-len(broken):]], counts)
         # add before removing, so that a system of one breaking particle is never empty
+        parent_ids = np.repeat(sim.particle_ids[self.last_broken], counts)
         first = sim.add_particles(np.concatenate(new_x), np.concatenate(new_r), new_mat,
-                                  v=np.concatenate(new_v), w=np.concatenate(new_w), tags=tags)[0]
+                                  v=np.concatenate(new_v), w=np.concatenate(new_w), tags=tags,
+                                  parent_ids=parent_ids)[0]
         gone = np.zeros(sim.n_particles, bool)
         gone[self.last_broken] = True
         sim.remove_particles(gone)

@@ -19,9 +19,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ...engine.events import room_for
 from ...engine.models import NO_BREAKAGE, ParticleModel, stable_identity
 from ...engine.rng import hash_uniform
-from ...engine.events import room_for
 from ...util.validation import check_range
 from ..contact import P_GAMMA_N, P_K_N
 
@@ -243,7 +243,8 @@ class WeibullSplit:
     New fragments are twins of each other, of the other fragments created in the same step that
     they overlap (children of twins that broke together) and of the parent's remaining twins: all
     those overlaps are artefacts of the split, not compression. A fragment inherits the parent's
-    rigid-body velocity at its centre and its spin.
+    rigid-body velocity at its centre and its spin, and has its id as parent id
+    (``Simulation.parent_ids``).
 
     Args:
         sieve_radius: fragments smaller than this leave as dust [m].
@@ -280,6 +281,7 @@ class WeibullSplit:
                 frag_parent.append(i)
         model = sim.breakage
         partners = {i: model.twin_partners(i) for i in parents}
+        parent_ids = sim.particle_ids[np.array(frag_parent, np.int64)]  # before removing them
         mask = np.zeros(sim.n_particles, bool)
         mask[parents] = True
         new_index = np.cumsum(~mask) - 1
@@ -288,7 +290,7 @@ class WeibullSplit:
         if not frag_r:
             return
         sim.add_particles(np.array(frag_x), np.array(frag_r), self.material, v=np.array(frag_v),
-                          w=np.array(frag_w))
+                          w=np.array(frag_w), parent_ids=parent_ids)
         xs, rs = np.array(frag_x), np.array(frag_r)
         for a in range(len(rs)):
             for b in range(a + 1, len(rs)):

@@ -1,0 +1,100 @@
+"""Strong scaling: the same system on 1, 2, 4, 8, 16 cores (those the machine has).
+
+    python bench/strong_scaling.py [--cores 1 2 4 8 16] [--n 100000] [--steps 200]
+                                   [--physics ballmill2d hertz_tavares beads_lubrication]
+                                   [--box | --no-box] [--json bench/out/strong_scaling.json]
+
+Rows: the three physics of bench/scaling.py at --n particles (each compiled as its scene compiles
+it, each case in its own process, warm-up then --steps timed steps of the compiled chunks), and
+the settled 10,000-sphere Hertz box of bench/engine_throughput.py in millsim and in LIGGGHTS
+(``mpirun -np N``) from the same prepared state for every N. Each row stores the machine's logical
+CPU count and the 1-minute load average before and after it: a load above the idle cores means
+the row competed with other work. Speed-up and parallel efficiency are against the same physics'
+one-core row of the same run: efficiency = rate(N) / (N rate(1)).
+
+Core counts above the machine's are refused (a row on oversubscribed cores measures the
+scheduler). bench/make_results.py turns the JSON into the "Strong scaling" table of RESULTS.md.
+"""
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import engine_throughput  # noqa: E402  (bench/engine_throughput.py)
+import scaling  # noqa: E402  (bench/scaling.py)
+
+
+def default_cores():
+    return [c for c in (1, 2, 4, 8, 16, 32, 64) if c <= (os.cpu_count() or 1)]
+
+
+def efficiency(rows):
+    """Adds speedup and efficiency to each row, against the one-core row of the same physics."""
+    one = {r["physics"]: r["rate"] for r in rows if r["cores"] == 1 and r.get("rate")}
+    for r in rows:
+        base = one.get(r["physics"])
+        if base and r.get("rate"):
+            r["speedup"] = r["rate"] / base
+            r["efficiency"] = r["speedup"] / r["cores"]
+    return rows
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cores", type=int, nargs="+", default=default_cores())
+    ap.add_argument("--n", type=int, default=100000, help="particles of the scaling.py physics")
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--physics", nargs="*", default=list(scaling.PHYSICS), choices=scaling.PHYSICS)
+    ap.add_argument("--box", action=argparse.BooleanOptionalAction, default=True,
+                    help="the Hertz box in millsim and LIGGGHTS (default on)")
+    ap.add_argument("--box-steps", type=int, default=20000)
+    ap.add_argument("--json", default=str(HERE / "out" / "strong_scaling.json"))
+    args = ap.parse_args(argv)
+    cpus = os.cpu_count() or 1
+    too_many = [c for c in args.cores if c < 1 or c > cpus]
+    if too_many:
+        ap.error(f"--cores {too_many}: this machine has {cpus} logical CPUs (allowed 1-{cpus})")
+
+    command = "python bench/strong_scaling.py " + " ".join(argv)
+    rows = []
+
+    def save():
+        efficiency(rows)
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps({"benchmark": "strong_scaling", "command": command,
+                                               "cpu_count": cpus, "rows": rows}, indent=2))
+
+    for cores in sorted(set(args.cores)):
+        if args.box:  # first: it writes the settled state hertz_tavares is cut from
+            prep = HERE / "out" / "liggghts" / "box_1"  # one prepared state for every core count
+            load0 = os.getloadavg()
+            d = engine_throughput.main(["--case", "box", "--cores", str(cores), "--steps",
+                                        str(args.box_steps), "--prep-from", str(prep)])
+            load = [load0, os.getloadavg()]
+            for code, rate in (("millsim", d["millsim_psps"]), ("LIGGGHTS", d["liggghts_psps"])):
+                rows.append({"physics": f"hertz_box ({code})", "code": code, "cores": cores, "cpu_count": cpus,
+                             "n_particles": d["n_particles"], "rate": rate, "loadavg": load})
+            save()
+        for physics in args.physics:
+            r = scaling.measure(physics, args.n, args.steps, 1.0, cores, 0.1, 1000.0)
+            rows.append({"physics": physics, "code": "millsim", "cores": cores, "cpu_count": cpus,
+                         "n_particles": r.get("n_particles", args.n),
+                         "rate": None if r.get("failed") else r["particle_steps_per_s"],
+                         "loadavg": r.get("loadavg"), "error": r.get("error")})
+            save()
+            print(f"{physics:18s} {cores:3d} cores: {rows[-1]['rate'] or r.get('error')}", flush=True)
+    for r in rows:
+        eff = f"{r['efficiency']:.0%}" if "efficiency" in r else "-"
+        print(f"{r['physics']:24s} {r['cores']:3d} cores  {r['rate'] or 0:10.3g} particle-steps/s  "
+              f"efficiency {eff}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
