@@ -13,15 +13,14 @@ import numba
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from test_lubrication_engine import jo84, pair_expected, wall_expected
 
 from millsim.engine import PhysicsSpec, Simulation
-from millsim.engine.implicit import (RW_VJ, RW_WALL_WIDTH, fitted_theta, row_jt, row_jv,
-                                    row_write)
+from millsim.engine.implicit import RW_VJ, RW_WALL_WIDTH, fitted_theta, row_jt, row_jv, row_write
 from millsim.models import Interaction, Lubrication, Material, MaterialTable
 from millsim.models.lubrication import pair_rows, wall_rows
 from millsim.scenes import stirred_mill as sm
 from millsim.scenes.base import get_scene
-from test_lubrication_engine import jo84, pair_expected, wall_expected
 
 PI = math.pi
 RHO = 2500.0
@@ -185,8 +184,8 @@ def test_squeeze_under_constant_force_at_the_dry_step(free_small):
         steps = int(t_end / sim.dt)
         ts, hs = [], []
         sim.run(steps, chunk=max(1, steps // 40), threads=1,
-                observer=lambda s: (ts.append(s.time),
-                                    hs.append(s.particles.x[0, 2] - a_free - a_fixed)))
+                observer=lambda s: (ts.append(s.time),  # noqa: B023 (runs within the iteration)
+                                    hs.append(s.particles.x[0, 2] - a_free - a_fixed)))  # noqa: B023
         assert hs[-1] < h_min  # it got into the clamped range
         errors.append(np.abs(np.array(hs) - sol.sol(np.array(ts))[0]).max())
     assert errors[0] <= 1e-2 * h_min

@@ -27,8 +27,20 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from .implicit import (LP_FORCE, LP_WIDTH, RW_ACT, RW_LAM, RW_VJ, RW_WALL_WIDTH, RW_WIDTH, RW_Z,
-                       lub_kernels, row_absent, row_impulse, row_power)
+from .implicit import (
+    LP_FORCE,
+    LP_WIDTH,
+    RW_ACT,
+    RW_LAM,
+    RW_VJ,
+    RW_WALL_WIDTH,
+    RW_WIDTH,
+    RW_Z,
+    lub_kernels,
+    row_absent,
+    row_impulse,
+    row_power,
+)
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from .kinematics import ROTATE, body_motion, body_pose, wall_contact
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
