@@ -220,12 +220,6 @@ def row_restart(o):
 
 
 @njit(inline="always", cache=True)
-def row_direction(o, beta):
-    """The new search direction z + beta p (not stored)."""
-    return row_combine(o, RW_Z, beta)
-
-
-@njit(inline="always", cache=True)
 def row_combine(o, a, beta):
     """o[a:a+7] + beta * (the stored direction)."""
     return (o[a] + beta * o[RW_DIR], o[a + 1] + beta * o[RW_DIR + 1],
@@ -242,17 +236,16 @@ def row_cpp(o, p0, p1, p2, p3, p4, p5, p6):
 
 
 @njit(inline="always", cache=True)
-def row_advance(o, beta, alpha, j0, j1, j2, j3, j4, j5, j6):
-    """The new direction p = z + beta p (stored), lam += alpha p, r -= alpha (C p + J u) with
+def row_advance(o, alpha, j0, j1, j2, j3, j4, j5, j6):
+    """lam += alpha p, r -= alpha (C p + J u) with the direction p stored by the first pass and
     J u = (j0..j6), z = D^-1 r; returns the new r.z."""
     cn, cs, cr = o[RW_K], o[RW_K + 1], o[RW_K + 2]
-    p = row_direction(o, beta)
     ju = (j0, j1, j2, j3, j4, j5, j6)
     for k in range(NR):
         c = cn if k == 0 else (cs if k < 4 else cr)
-        o[RW_DIR + k] = p[k]
-        o[RW_LAM + k] += alpha * p[k]
-        o[RW_RES + k] -= alpha * (c * p[k] + ju[k])
+        p = o[RW_DIR + k]
+        o[RW_LAM + k] += alpha * p
+        o[RW_RES + k] -= alpha * (c * p + ju[k])
     return row_precondition(o)
 
 
@@ -296,7 +289,8 @@ def pair_ju(o, LP, i, j):
 
 # ---- the passes (factories: the spec's options become the closure's constants) -----------------
 def lub_kernels(spec, layout, block):
-    """Block kernels of the solve: (setup_particles, p1, setup_slots, restart, p3).
+    """Block kernels of the solve: (setup_particles, p1_own, p1_partner, setup_slots, restart,
+    p3).
 
     Each works on the particles ``block`` * blk ... and their own slots (i of the pair), so every
     record has one writer and every partial sum one block: the result does not depend on the
@@ -343,46 +337,76 @@ def lub_kernels(spec, layout, block):
                     for k in range(NR):
                         o[RW_JM + k] = jm[k]
 
-    def p1(blk, beta, a, P, C, S):
-        """u = M^-1 J^T p per free particle for p = o[a:a+7] + beta (stored direction) of every
-        row: the new direction z + beta p (a = RW_Z; p3 stores it), or the impulses kept from the
-        last step (a = RW_LAM, beta = 0); and the block's part of p.(C + W) p = sum of p.C p over
-        its own rows + sum of (J^T p).u over its particles, into cg_part[blk, 0]."""
-        start, rev_start, rev_slot, rows = C.start, C.rev_start, C.rev_slot, S.lub_slots
-        LP, WR = S.lub_particle, S.lub_rows
-        pq = 0.0
+    def p1_own(blk, beta, a, P, C, S):
+        """First half of u = M^-1 J^T p, for p = o[a:a+7] + beta (stored direction) of every row:
+        the new direction z + beta p (a = RW_Z: stored in its place for the second half and p3),
+        or the impulses kept from the last step (a = RW_LAM, beta = 0). Sums J^T p of the rows a
+        particle owns into its u columns and writes each pair's share on the partner
+        (S.lub_partner: -F_i, T_j; zero where no row), so the second half reads one narrow record
+        per partner slot instead of the row's wide one at a scattered place."""
+        start, rows, partner, LP = C.start, S.lub_slots, S.lub_partner, S.lub_particle
+        store = a == RW_Z
         for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
             F0 = F1 = F2 = T0 = T1 = T2 = 0.0
             for k in range(start[i], start[i + 1]):
                 o = rows[k]
+                if o[RW_ACT] == 0.0:
+                    for c in range(6):
+                        partner[k, c] = 0.0
+                    continue
+                p = row_combine(o, a, beta)
+                if store:
+                    for c in range(NR):
+                        o[RW_DIR + c] = p[c]
+                f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
+                F0 += f[0]
+                F1 += f[1]
+                F2 += f[2]
+                T0 += f[3]
+                T1 += f[4]
+                T2 += f[5]
+                partner[k, 0], partner[k, 1], partner[k, 2] = f[0], f[1], f[2]
+                partner[k, 3], partner[k, 4], partner[k, 5] = f[6], f[7], f[8]
+            if P.body[i] >= 0:
+                continue  # infinite mass: its u stays 0 (partners read it)
+            LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2] = F0, F1, F2
+            LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5] = T0, T1, T2
+
+    def p1_partner(blk, beta, a, P, C, S):
+        """Second half: the partner shares and the wall rows added, u = M^-1 J^T p per free
+        particle; the block's part of p.(C + W) p = sum of p.C p over its own rows + sum of
+        (J^T p).u over its particles into cg_part[blk, 0]. (p of a pair row is where p1_own left
+        it: the stored direction, or the impulses.)"""
+        start, rev_start, rev_slot, rows = C.start, C.rev_start, C.rev_slot, S.lub_slots
+        partner, LP, WR = S.lub_partner, S.lub_particle, S.lub_rows
+        own = RW_DIR if a == RW_Z else a
+        pq = 0.0
+        for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
+            for k in range(start[i], start[i + 1]):
+                o = rows[k]
                 if o[RW_ACT] != 0.0:
-                    p = row_combine(o, a, beta)
-                    pq += row_cpp(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
-                    f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
-                    F0 += f[0]
-                    F1 += f[1]
-                    F2 += f[2]
-                    T0 += f[3]
-                    T1 += f[4]
-                    T2 += f[5]
+                    pq += row_cpp(o, o[own], o[own + 1], o[own + 2], o[own + 3], o[own + 4],
+                                  o[own + 5], o[own + 6])
             if P.body[i] >= 0:
                 continue  # infinite mass: u = 0 (never written), no part in W
+            F0, F1, F2 = LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2]
+            T0, T1, T2 = LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5]
             for q in range(rev_start[i], rev_start[i + 1]):
-                o = rows[rev_slot[q]]
-                if o[RW_ACT] != 0.0:
-                    p = row_combine(o, a, beta)
-                    f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
-                    F0 -= f[0]
-                    F1 -= f[1]
-                    F2 -= f[2]
-                    T0 += f[6]
-                    T1 += f[7]
-                    T2 += f[8]
+                s = partner[rev_slot[q]]
+                F0 -= s[0]
+                F1 -= s[1]
+                F2 -= s[2]
+                T0 += s[3]
+                T1 += s[4]
+                T2 += s[5]
             if WALLS:
                 for iw in range(WR.shape[1]):
                     o = WR[i, iw]
                     if o[RW_ACT] != 0.0:
                         p = row_combine(o, a, beta)
+                        if a == RW_Z:
+                            for c in range(NR):
+                                o[RW_DIR + c] = p[c]
                         pq += row_cpp(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                         f = row_jt(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
                         F0 += f[0]
@@ -469,9 +493,9 @@ def lub_kernels(spec, layout, block):
                         rho += row_restart(WR[i, iw])
         S.cg_part[blk, 1] = rho
 
-    def p3(blk, beta, alpha, P, C, S):
-        """The new direction stored, lam += alpha p, r -= alpha q on the block's rows; partial
-        r.D^-1 r into cg_part[blk, 1]."""
+    def p3(blk, alpha, P, C, S):
+        """lam += alpha p, r -= alpha q on the block's rows (p stored by p1_own / p1_partner);
+        partial r.D^-1 r into cg_part[blk, 1]."""
         start, nbr, rows, LP, WR = C.start, C.nbr, S.lub_slots, S.lub_particle, S.lub_rows
         rho = 0.0
         for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
@@ -479,8 +503,7 @@ def lub_kernels(spec, layout, block):
                 o = rows[k]
                 if o[RW_ACT] != 0.0:
                     ju = pair_ju(o, LP, i, nbr[k])
-                    rho += row_advance(o, beta, alpha, ju[0], ju[1], ju[2], ju[3], ju[4], ju[5],
-                                       ju[6])
+                    rho += row_advance(o, alpha, ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
             if WALLS and P.body[i] < 0:
                 for iw in range(WR.shape[1]):
                     o = WR[i, iw]
@@ -488,8 +511,8 @@ def lub_kernels(spec, layout, block):
                         ju = row_jv(o, LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2],
                                     LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5],
                                     0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-                        rho += row_advance(o, beta, alpha, ju[0], ju[1], ju[2], ju[3], ju[4],
-                                           ju[5], ju[6])
+                        rho += row_advance(o, alpha, ju[0], ju[1], ju[2], ju[3], ju[4], ju[5],
+                                           ju[6])
         S.cg_part[blk, 1] = rho
 
-    return setup_particles, p1, setup_slots, restart, p3
+    return setup_particles, p1_own, p1_partner, setup_slots, restart, p3

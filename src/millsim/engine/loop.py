@@ -212,8 +212,8 @@ class _Parts:
             slots = C.nbr.shape[0]
             return Scratch(np.empty((slots, SLOT)), np.empty((slots if ROLLING else 0, 2, 3)),
                            wall_part, audit_part, stop, rebuild,
-                           np.zeros((slots if IMPLICIT else 0, RW_WIDTH)), lub_rows, lub_particle,
-                           cg_part)
+                           np.zeros((slots if IMPLICIT else 0, RW_WIDTH)), lub_rows,
+                           np.empty((slots if IMPLICIT else 0, 6)), lub_particle, cg_part)
 
         def moved_beyond(x, x_ref, half_skin2):
             for i in range(x.shape[0]):
@@ -326,7 +326,7 @@ class _Parts:
         starts from the impulses of the last step (``warm``: no list rebuild since) where they
         lower the objective below its value at 0, else from 0.
         """
-        setup_particles, p1, setup_slots, restart, p3 = self.lub_blocks
+        setup_particles, p1_own, p1_partner, setup_slots, restart, p3 = self.lub_blocks
         finish_block = self.lub_finish_block
 
         # (One parallel loop per function: each pass reads what the one before wrote for other
@@ -343,13 +343,17 @@ class _Parts:
             for blk in prange(n_blocks):
                 restart(np.int64(blk), P, C, S)
 
-        def pass1(n_blocks, beta, a, P, C, S):
+        def pass1_own(n_blocks, beta, a, P, C, S):
             for blk in prange(n_blocks):
-                p1(np.int64(blk), beta, a, P, C, S)
+                p1_own(np.int64(blk), beta, a, P, C, S)
 
-        def pass3(n_blocks, beta, alpha, P, C, S):
+        def pass1_partner(n_blocks, beta, a, P, C, S):
             for blk in prange(n_blocks):
-                p3(np.int64(blk), beta, alpha, P, C, S)
+                p1_partner(np.int64(blk), beta, a, P, C, S)
+
+        def pass3(n_blocks, alpha, P, C, S):
+            for blk in prange(n_blocks):
+                p3(np.int64(blk), alpha, P, C, S)
 
         def finish_pass(n_blocks, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
             for blk in prange(n_blocks):
@@ -359,7 +363,15 @@ class _Parts:
         setup_particle_pass = self._parallel(setup_particle_pass)
         setup_slot_pass = self._parallel(setup_slot_pass)
         restart_pass = self._parallel(restart_pass)
-        pass1, pass3 = self._parallel(pass1), self._parallel(pass3)
+        pass1_own, pass1_partner = self._parallel(pass1_own), self._parallel(pass1_partner)
+        pass3 = self._parallel(pass3)
+
+        def pass1(n_blocks, beta, a, P, C, S):
+            """u = M^-1 J^T p and the blocks' parts of p.(C + W) p (engine.implicit p1_own,
+            p1_partner)."""
+            pass1_own(n_blocks, beta, a, P, C, S)
+            pass1_partner(n_blocks, beta, a, P, C, S)
+
         finish_pass = self._parallel(finish_pass)
 
         def block_sum(part, col):
@@ -388,7 +400,7 @@ class _Parts:
                 pq = block_sum(part, 0)
                 if not pq > 0.0:  # rounding at convergence: nothing left to reduce
                     break
-                pass3(n_blocks, beta, rho / pq, P, C, S)
+                pass3(n_blocks, rho / pq, P, C, S)
                 rho_new = block_sum(part, 1)
                 beta = rho_new / rho
                 rho = rho_new
@@ -397,6 +409,7 @@ class _Parts:
             counters[3] = max(counters[3], iterations)
 
         block_sum = stable_identity(njit(cache=True)(block_sum), f"{self.key}|block_sum")
+        pass1 = stable_identity(njit(cache=True)(pass1), f"{self.key}|pass1")
         lub_solve = stable_identity(njit(cache=True)(lub_solve), f"{self.key}|lub_solve")
         return lub_solve, finish_pass
 
