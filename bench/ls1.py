@@ -3,6 +3,8 @@
     python bench/ls1.py [--cases 0:auto:0.5 1:auto:0.1 0:5e-8:0.01 1:5e-8:0.01] [--rpm 2500]
                         [--threads 2] [--ramp-revolutions R] [--json FILE]
 
+    python bench/ls1.py --cases 1:auto:0.5:implicit   # the implicit lubrication scheme
+
 The case is config/paper.yaml's stirred mill: scene ``stirred_mill`` at scale 1, slice false
 (the whole 4-disk chamber), 1.8 mm monodisperse beads from the Table 2 filling (128,739 beads,
 the seed simulates 128,000) plus the 28,992 spheres of the agitator disks. Each viscosity runs in
@@ -12,8 +14,10 @@ its own process with ``--threads`` numba threads:
 - ``first_steps_s``: the first 5 steps (loading the compiled loop from numba's cache, or
   compiling it when the cache is empty);
 - the timed run: the case's simulated milliseconds at its step, wall time of the compiled
-  chunks only. A case is ``eta:dt:ms``; dt ``auto`` is the scene's automatic step (dry:
-  t_c/25 = 1.0e-5 s; 1 Pa s: the lubrication bound, 3.6e-7 s), 5e-8 is the seed's.
+  chunks only. A case is ``eta:dt:ms[:scheme]``; dt ``auto`` is the scene's automatic step (dry:
+  t_c/25 = 1.0e-5 s; 1 Pa s: the lubrication bound, 3.6e-7 s, with the explicit scheme, the dry
+  step with the implicit one), 5e-8 is the seed's; scheme ``explicit`` (default) or ``implicit``
+  (docs/lubrication.md; its solver iterations per step are reported).
 
 The run starts from the scene's start state (beads on FCC lattice sites, 0.1 of rigid swirl), so
 the beads touch little yet (contacts per particle are reported) while the lubrication pairs are
@@ -48,28 +52,31 @@ from millsim.scenes import stirred_mill as sm
 from millsim.scenes.base import get_scene
 eta, dt, rpm, sim_ms, threads, ramp = (float(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3]),
                                        float(sys.argv[4]), int(sys.argv[5]), float(sys.argv[6]))
+scheme = sys.argv[7]
 numba.set_num_threads(threads)
 values = get_scene("stirred_mill").resolve(dict(scale=1.0, slice=False, bead_diameter_min=1.8e-3,
                                                bead_diameter_max=1.8e-3, eta=eta, rpm=rpm, seed=1,
-                                               dt=dt, ramp_revolutions=ramp))
+                                               dt=dt, ramp_revolutions=ramp,
+                                               lubrication_scheme=scheme))
 t1 = time.perf_counter()
 sim, g = sm.build(values)
 t2 = time.perf_counter()
 sim.run(5, chunk=5, threads=threads)
 t3 = time.perf_counter()
 steps = max(1, int(round(sim_ms * 1e-3 / sim.dt)))
-loop0, rebuilds0 = sim.wall_seconds, int(sim.counters[0])
+loop0, rebuilds0, iterations0 = sim.wall_seconds, int(sim.counters[0]), int(sim.counters[2])
 sim.run(steps, chunk=steps, threads=threads)
 loop_s = sim.wall_seconds - loop0
 i, j, _ = sim.contact_pairs()
 print(json.dumps({
-    "eta": eta, "rpm": rpm, "threads": threads, "n_particles": sim.n_particles,
+    "eta": eta, "scheme": scheme, "rpm": rpm, "threads": threads, "n_particles": sim.n_particles,
     "n_beads": g["n_beads"], "n_agitator_particles": g["n_agitator_particles"], "dt": sim.dt,
     "dt_binding": sim.dt_report.binding.interaction, "import_s": t1 - t0, "setup_s": t2 - t1,
     "first_steps_s": t3 - t2, "steps": steps, "sim_ms": steps * sim.dt * 1e3, "loop_s": loop_s,
     "s_per_step": loop_s / steps, "wall_s_per_sim_ms": loop_s / (steps * sim.dt * 1e3),
     "particle_steps_per_s": sim.n_particles * steps / loop_s,
     "list_rebuilds": int(sim.counters[0]) - rebuilds0,
+    "solver_iterations_per_step": (int(sim.counters[2]) - iterations0) / steps,
     "listed_pairs_per_particle": 2 * len(sim.contacts.nbr) / sim.n_particles,
     "contacts_per_particle": 2 * len(i) / sim.n_particles,
     "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
@@ -78,14 +85,15 @@ print(json.dumps({
 """
 
 
-def measure(eta, dt, rpm, sim_ms, threads, ramp=0.0):
+def measure(eta, dt, rpm, sim_ms, threads, ramp=0.0, scheme="explicit"):
     env = dict(os.environ, NUMBA_NUM_THREADS=str(max(threads, 1)))
     out = subprocess.run([sys.executable, "-c", RUN, str(eta), str(dt), str(rpm), str(sim_ms),
-                          str(threads), str(ramp)], capture_output=True, text=True, env=env)
+                          str(threads), str(ramp), scheme], capture_output=True, text=True,
+                         env=env)
     if out.returncode:  # e.g. a guard that stopped the run: recorded, not hidden
         lines = out.stderr.strip().splitlines()
-        return {"eta": eta, "dt_given": dt, "rpm": rpm, "threads": threads, "failed": True,
-                "ramp_revolutions": ramp,
+        return {"eta": eta, "scheme": scheme, "dt_given": dt, "rpm": rpm, "threads": threads,
+                "failed": True, "ramp_revolutions": ramp,
                 "error": lines[-1] if lines else f"exit code {out.returncode}"}
     r = json.loads(out.stdout.strip().splitlines()[-1])
     r["dt_choice"] = "auto" if dt == 0 else "given"
@@ -102,7 +110,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", nargs="+", default=["0:auto:0.5", "1:auto:0.1", "0:5e-8:0.01",
                                                    "1:5e-8:0.01"],
-                    help="eta [Pa s]:dt [s or auto]:simulated ms")
+                    help="eta [Pa s]:dt [s or auto]:simulated ms[:explicit|implicit]")
     ap.add_argument("--rpm", type=float, default=2500.0)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--ramp-revolutions", type=float, default=0.0,
@@ -111,14 +119,15 @@ def main(argv=None):
     args = ap.parse_args(argv)
     results = []
     for case in args.cases:
-        eta, dt, ms = case.split(":")
+        eta, dt, ms, *scheme = case.split(":")
         r = measure(float(eta), 0.0 if dt == "auto" else float(dt), args.rpm, float(ms),
-                    args.threads, args.ramp_revolutions)
+                    args.threads, args.ramp_revolutions, *scheme)
         results.append(r)
         if r.get("failed"):
-            print(f"eta = {r['eta']:g} Pa s, dt {dt}: FAILED {r['error']}", flush=True)
+            print(f"eta = {r['eta']:g} Pa s {r['scheme']}, dt {dt}: FAILED {r['error']}",
+                  flush=True)
             continue
-        print(f"eta = {r['eta']:g} Pa s, dt {r['dt']:.3g} s ({r['dt_choice']}): "
+        print(f"eta = {r['eta']:g} Pa s {r['scheme']}, dt {r['dt']:.3g} s ({r['dt_choice']}): "
               f"{r['n_particles']} particles, setup {r['setup_s']:.1f} s, "
               f"{r['wall_s_per_sim_ms']:.1f} s per simulated ms -> {r['projection_52p5ms_h']:.2f} h "
               f"for 52.5 ms (seed Table 3: {r.get('seed_table3_h', float('nan'))} h); "

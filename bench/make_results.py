@@ -251,7 +251,8 @@ def ls1():
             loads += lv
             seed = c.get("seed_table3_h")
             proj = c["projection_52p5ms_h"]
-            rows.append([_g(c["eta"]), f"{_g(c['dt'])} ({c.get('dt_choice', '-')})", c["steps"],
+            rows.append([f"{_g(c['eta'])} {c.get('scheme', 'explicit')}",
+                         f"{_g(c['dt'])} ({c.get('dt_choice', '-')})", c["steps"],
                          _g(c["sim_ms"]), _g(c["setup_s"]), _g(c["first_steps_s"]),
                          _g(c["s_per_step"]), _g(c["wall_s_per_sim_ms"]), _g(proj),
                          f"{_g(seed)} ({c.get('seed_table3_processors', '-')} proc.)" if seed else "-",
@@ -268,11 +269,42 @@ def ls1():
         text += [f"`{p.name}` ({_command(d)}): {c0['n_particles']} particles ({c0['n_beads']} beads, "
                  f"{c0['n_agitator_particles']} agitator spheres), {d['rpm']:g} rpm, "
                  f"{d['threads']} threads, load (1 min) {_load_note(loads)}.", ""]
-        text.append(_table(["eta [Pa s]", "dt [s]", "steps", "simulated [ms]", "setup [s]",
+        text.append(_table(["eta [Pa s], scheme", "dt [s]", "steps", "simulated [ms]", "setup [s]",
                             "first 5 steps [s]", "s/step", "wall s per simulated ms",
                             "projected 52.5 ms [h]", "seed Table 3 [h]", "projected / seed",
                             "particle-steps/s", "contacts/particle", "list rebuilds",
                             "peak RSS [MB]", "load (1 min)"], rows))
+        text.append("")
+    return text
+
+
+def lubrication():
+    """Explicit and implicit lubrication on the quick slice: cost and the paired power check."""
+    text = ["## Lubrication schemes on the quick stirred-mill slice", ""]
+    cost, paired = _load("lubrication_cost*.json"), _load("lubrication_schemes*.json")
+    if not cost and not paired:
+        return text + ["No `lubrication_cost*.json` or `lubrication_schemes*.json` in bench/out.", ""]
+    for p, d in cost:
+        text += [f"Cost (`{p.name}`, {_command(d)}; {d['threads']} thread(s), fastest of the "
+                 f"repeats, load (1 min) {_load_note(_one_minute(d.get('loadavg')))}):", ""]
+        rows = [[_g(c["eta"]), c["scheme"], _g(c["dt"]), _g(1e3 * c["s_per_step"]),
+                 _g(c["s_per_sim_ms"]), _g(c["cost_ratio"]), _g(c["iterations_per_step"])]
+                for c in d["cases"]]
+        text += [_table(["eta [Pa s]", "scheme", "dt [s]", "ms/step", "s per simulated ms",
+                         "x first row", "CG iterations/step"], rows), ""]
+    for p, d in paired:
+        text += [f"Net power, paired by seed (`{p.name}`, {_command(d)}):", ""]
+        rows = [[_g(c["eta"]), c["seed"], c["scheme"], _g(c["dt"]), c["steps"],
+                 _g(c["compute_s"]), f"{_g(c['net_power'], 4)} +- {_g(c['net_power_ci'], 2)}",
+                 _g(c["energy_balance_error"])] for c in d["cases"]]
+        text += [_table(["eta [Pa s]", "seed", "scheme", "dt [s]", "steps", "compute [s]",
+                         "net power [W] (block 95 %)", "balance error"], rows), ""]
+        for r in d["summary"]:
+            text.append(f"- eta = {r['eta']:g} Pa s: implicit - explicit = "
+                        f"{100 * r['relative_difference']:+.1f} +- {100 * r['relative_se']:.1f} % "
+                        f"(mean of the paired differences +- its standard error, seeds "
+                        f"{r['seeds']}); the explicit runs' own block 95 % half-width "
+                        f"{100 * r['explicit_block_ci_mean'] / r['explicit_mean']:.1f} %.")
         text.append("")
     return text
 
@@ -295,7 +327,8 @@ def summary():
                 continue
             seed = c.get("seed_table3_h")
             text.append(
-                f"- LS1 at {d['rpm']:g} rpm, eta = {c['eta']:g} Pa s, dt = {c['dt']:.3g} s "
+                f"- LS1 at {d['rpm']:g} rpm, eta = {c['eta']:g} Pa s "
+                f"({c.get('scheme', 'explicit')} lubrication), dt = {c['dt']:.3g} s "
                 f"({c.get('dt_choice', '-')}), {d['threads']} threads (`{name.name}`): "
                 f"{c['wall_s_per_sim_ms']:.3g} s per simulated ms -> "
                 f"{c['projection_52p5ms_h']:.3g} h for 52.5 ms"
@@ -339,7 +372,8 @@ def main(argv=None):
             "run (millsim / LIGGGHTS, variant / lean), which the interleaving of the measurements "
             "makes largely load-independent. Timings older than the load recording say \"not "
             "recorded\".", ""]
-    for section in (summary, throughput, strong_scaling, leave_out, scaling, ls1):
+    for section in (summary, throughput, strong_scaling, leave_out, scaling, ls1,
+                    lubrication):
         text += section()
     Path(args.out).write_text("\n".join(text).rstrip() + "\n")
     print(f"wrote {args.out}")

@@ -80,6 +80,11 @@ BAD_MATERIALS = "materials: [1, 2\n"  # not YAML
      "n_particles: 1000000000000 particles need at least 1e+06 GB"),
     (["packing", "--out", "c.nc", "--set", "n=1000000000000"], "n: 1000000000000 particles"),
     (["stirred_mill", "--out", "c.nc", "--set", "n_beads=1000000000000"], "n_beads: "),
+    # the lubrication scheme and its solve
+    (["stirred_mill", "--out", "c.nc", "--set", "lubrication_scheme=crank"],
+     "lubrication_scheme: must be one of ['explicit', 'implicit'], got 'crank'"),
+    (["stirred_mill", "--out", "c.nc", "--set", "lubrication_tolerance=0"],
+     "lubrication_tolerance: "),
     (["ballmill2d", "--out", "c.nc", "--set", "grain_radius=1e-7", "--set", "sieve_radius=1e-8"],
      "filling (n_grains from it): "),
     # the materials file a case names, not the default one (every fault of a materials file:

@@ -181,7 +181,8 @@ DRY_SCENE = textwrap.dedent("""
     assert sim.fluid is None
     sim.run(20, threads=1)
     print(len(contact.linear_history.signatures), len(lubrication.pair_force_torque.signatures),
-          len(lubrication.wall_force_torque.signatures), len(lubrication.pair_resistances.signatures))
+          len(lubrication.wall_force_torque.signatures), len(lubrication.pair_resistances.signatures),
+          len(lubrication.pair_rows.signatures), len(lubrication.wall_rows.signatures))
 """)
 
 
@@ -189,8 +190,9 @@ def test_dry_scene_compiles_no_lubrication(tmp_path):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     out = subprocess.run([sys.executable, "-c", DRY_SCENE], env=env, capture_output=True, text=True,
                          check=True)
-    used, pair, wall, scalars = map(int, out.stdout.split())
+    used, pair, wall, scalars, pair_rows, wall_rows = map(int, out.stdout.split())
     assert used == 1 and pair == 0 and wall == 0 and scalars == 0
+    assert pair_rows == 0 and wall_rows == 0  # nor the implicit scheme's rows
 
 
 # ------------------------------------------------------------------------------------------------
@@ -315,6 +317,8 @@ def test_pipeline_resolves_the_stirred_mill_rules(tmp_path, monkeypatch):
     ("power", "rpm", [0, 2500], "rpm"),
     ("parameters", "filling", 0.8, "filling"),
     ("parameters", "h_min", 0.06, "h_min"),  # >= h_max = 0.05: the scene's check, still before any job
+    ("parameters", "lubrication_scheme", "crank", "lubrication_scheme"),
+    ("parameters", "lubrication_tolerance", 0, "lubrication_tolerance"),
 ])
 def test_pipeline_refuses_bad_stirred_input_before_any_job(tmp_path, monkeypatch, block, key, value,
                                                            named):

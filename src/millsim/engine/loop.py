@@ -27,6 +27,20 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from .implicit import (
+    LP_FORCE,
+    LP_WIDTH,
+    RW_ACT,
+    RW_LAM,
+    RW_VJ,
+    RW_WALL_WIDTH,
+    RW_WIDTH,
+    RW_Z,
+    lub_kernels,
+    row_absent,
+    row_impulse,
+    row_power,
+)
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from .kinematics import ROTATE, body_motion, body_pose, wall_contact
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
@@ -59,6 +73,7 @@ class Layout:
     slot_model: int  # breakage model's slot-record columns
     fluid: bool
     audit: bool
+    implicit: bool = False  # the fluid's resistance is integrated implicitly (engine.implicit)
 
     @property
     def contact_columns(self):
@@ -69,12 +84,12 @@ class Layout:
         return self.spring + self.wall_model
 
     @property
-    def slot_fluid(self):  # lubrication torques on i and on j
+    def slot_fluid(self):  # explicit lubrication torques on i and j (implicit: Scratch.lub_slots)
         return SLOT_BASE + self.slot_model
 
     @property
     def slot_audit(self):
-        return self.slot_fluid + (6 if self.fluid else 0)
+        return self.slot_fluid + (6 if self.fluid and not self.implicit else 0)
 
     @property
     def slot_width(self):
@@ -93,7 +108,7 @@ def build_chunk_runner(spec, law, breakage=None, fluid=None):
                     len(breakage.contact_columns) if breakage else 0,
                     len(breakage.wall_columns) if breakage else 0,
                     len(breakage.slot_columns) if breakage else 0,
-                    fluid is not None, spec.energy_audit)
+                    fluid is not None, spec.energy_audit, fluid is not None and fluid.implicit)
     key = (f"{spec}|{law.name}|{breakage.name if breakage else ''}|"
            f"{fluid.name if fluid else ''}|{layout}")
     parts = _Parts(spec, law, breakage.kernels if breakage else NO_BREAKAGE,
@@ -114,15 +129,19 @@ class _Parts:
     def __init__(self, spec, law, brk, flu, layout, key):
         self.key = key
         contact = self._inline(_contact_kernel(spec, law))
+        finish = self._inline(_finish_kernel(spec))
         self.pair_block = self._jit(_pair_block_kernel(
             self._inline(_pair_row_kernel(spec, law, brk, flu, layout, contact))))
         self.particle_block = self._jit(_particle_block_kernel(
             spec, brk, layout,
             gather=self._inline(_gather_kernel(spec, brk, layout)),
             walls=self._inline(_walls_kernel(spec, law, brk, flu, layout, contact)),
-            finish=self._inline(_finish_kernel(spec))))
+            finish=finish))
         self.start_block = self._jit(_start_block_kernel(spec))
         self.reductions = self._jit(_reduction_kernel(spec, layout))
+        if layout.implicit:  # the implicit lubrication solve (engine.implicit); else not compiled
+            self.lub_blocks = tuple(self._jit(fn) for fn in lub_kernels(spec, layout, BLOCK))
+            self.lub_finish_block = self._jit(_lub_finish_kernel(spec, layout, finish))
         self.run_chunk = self._runner(spec, brk, layout)
 
     def _inline(self, fn):
@@ -145,7 +164,7 @@ class _Parts:
 
     def _runner(self, spec, brk, layout):
         ROLLING, PERIODIC = spec.rolling_friction, spec.periodic
-        SLOT, AUDIT = layout.slot_width, layout.audit
+        SLOT, AUDIT, IMPLICIT = layout.slot_width, layout.audit, layout.implicit
         collect = brk.collect
         pair_block, particle_block = self.pair_block, self.particle_block
         start_block, reductions = self.start_block, self.reductions
@@ -170,6 +189,9 @@ class _Parts:
 
         start_pass, pair_pass = self._parallel(start_pass), self._parallel(pair_pass)
         particle_pass = self._parallel(particle_pass)
+        lub_solve = lub_finish_pass = None
+        if IMPLICIT:
+            lub_solve, lub_finish_pass = self._lub_passes()
 
         def rebuilt(P, C, R):
             if PERIODIC:
@@ -184,12 +206,14 @@ class _Parts:
                     P.x_ref[i, a] = P.x[i, a]
             return ContactList(start, nbr, state, rev_start, rev_slot)
 
-        def slot_scratch(C, wall_part, audit_part, stop, rebuild):
+        def slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle, cg_part):
             """Per-slot records (see Layout) and rolling torques for the slots of list C, with the
-            chunk's partial sums and flags."""
+            chunk's partial sums, flags and implicit-lubrication arrays."""
             slots = C.nbr.shape[0]
             return Scratch(np.empty((slots, SLOT)), np.empty((slots if ROLLING else 0, 2, 3)),
-                           wall_part, audit_part, stop, rebuild)
+                           wall_part, audit_part, stop, rebuild,
+                           np.zeros((slots if IMPLICIT else 0, RW_WIDTH)), lub_rows,
+                           np.empty((slots if IMPLICIT else 0, 6)), lub_particle, cg_part)
 
         def moved_beyond(x, x_ref, half_skin2):
             for i in range(x.shape[0]):
@@ -209,7 +233,13 @@ class _Parts:
             stop = np.zeros(1, dtype=np.int64)  # a breakage decision ends the chunk at this step
             wall_part = np.zeros((n_blocks, max(W.table.shape[0], 1), 7))
             audit_part = np.zeros((n_blocks if AUDIT else 0, N_AUDIT))
-            S = slot_scratch(C, wall_part, audit_part, stop, rebuild)
+            # implicit lubrication: wall rows zeroed (rows of walls a particle never visits, body
+            # particles', stay inactive), loads and velocities of the solve, its partial sums
+            lub_rows = np.zeros((n if IMPLICIT else 0, W.table.shape[0], RW_WALL_WIDTH))
+            lub_particle = np.zeros((n if IMPLICIT else 0, LP_WIDTH))
+            cg_part = np.zeros((n_blocks if IMPLICIT else 0, 3))
+            S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle,
+                             cg_part)
             if prime:
                 # The forces of the start state (a run that starts in contact or inside a fluid
                 # film): the first drift uses them. dt = 0 evaluates without advancing springs.
@@ -217,6 +247,12 @@ class _Parts:
                 # (Run-time values, not literals: a literal argument compiles another variant.)
                 particle_pass(n_blocks, np.int64(0), prime, t, 0.0, P, C, W, B, R, err, S, bs, fp,
                               half_skin2)
+                if IMPLICIT:
+                    # the first kick starts at the state: half a step of lubrication, so that the
+                    # first drift moves with the implicit half-step velocity (see lub_solve)
+                    lub_solve(n_blocks, 0.0, 0.5 * dt, False, P, C, R, S, fp, counters)
+                    lub_finish_pass(n_blocks, np.int64(0), prime, t, 0.0, 0.5 * dt, P, C, W, B, R,
+                                    err, S, half_skin2)
                 for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
                     power = 0.0
                     for blk in range(n_blocks):
@@ -229,15 +265,25 @@ class _Parts:
                 # the last chunk ended on a step that asked for a list rebuild: do it now, before
                 # any pair is evaluated (a list older than half a skin of travel can miss pairs)
                 C = rebuilt(P, C, R)
-                S = slot_scratch(C, wall_part, audit_part, stop, rebuild)
+                S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle,
+                                 cg_part)
                 counters[0] += 1
             steps_done = 0
+            warm = False  # implicit lubrication: impulses of the last step kept in the rows
             for step in range(n_steps):
                 pair_pass(n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
                 particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp,
                               half_skin2)
-                if stop[0] != 0 and not last:
+                if IMPLICIT:
+                    # the kick needs the lubrication impulses first; a breakage decision of the
+                    # particle pass is known here, so that step ends without the drift
+                    last = last or stop[0] != 0
+                    lub_solve(n_blocks, 0.5 * dt, dt, warm, P, C, R, S, fp, counters)
+                    warm = True
+                    lub_finish_pass(n_blocks, step, last, t, dt, dt, P, C, W, B, R, err, S,
+                                    half_skin2)
+                elif stop[0] != 0 and not last:
                     # A particle broke in the particle pass, after ``last`` was decided, so every
                     # particle has already started the next step: take that back, so that the
                     # chunk ends at the step boundary like any other, with positions and
@@ -255,7 +301,9 @@ class _Parts:
                 if rebuild[0] != 0 and not last:
                     C = rebuilt(P, C, R)
                     rebuild[0] = 0
-                    S = slot_scratch(C, wall_part, audit_part, stop, rebuild)
+                    S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows,
+                                     lub_particle, cg_part)
+                    warm = False  # new rows (zeros)
                     counters[0] += 1
             counters[1] += steps_done
             return steps_done, C, events
@@ -264,6 +312,106 @@ class _Parts:
         moved_beyond = stable_identity(njit(cache=True)(moved_beyond), f"{self.key}|moved_beyond")
         slot_scratch = stable_identity(njit(cache=True)(slot_scratch), f"{self.key}|slot_scratch")
         return stable_identity(njit(cache=True, fastmath=FAST)(run_chunk), f"{self.key}|run_chunk")
+
+
+    def _lub_passes(self):
+        """The implicit lubrication solve and the kick that applies it (engine.implicit).
+
+        ``lub_solve(n_blocks, back, tau, warm, ...)``: the kick of length tau starts at
+        v- = v - back acc: the half-step velocity (v holds the prediction v + dt a of the last
+        drift, back = dt/2), or the state itself when priming (back = 0, tau = dt/2). The other
+        loads of the particle pass give the free velocity v_f = v- + tau a, and preconditioned CG
+        solves (C + W) lam = b (engine.implicit: b = J v_f + (1 - theta)/theta J v-) until
+        r.D^-1 r <= tol^2 b.D^-1 b or ``max_iterations``, with every sum over fixed blocks. It
+        starts from the impulses of the last step (``warm``: no list rebuild since) where they
+        lower the objective below its value at 0, else from 0.
+        """
+        setup_particles, p1_own, p1_partner, setup_slots, restart, p3 = self.lub_blocks
+        finish_block = self.lub_finish_block
+
+        # (One parallel loop per function: each pass reads what the one before wrote for other
+        # blocks, so they must not be fused.)
+        def setup_particle_pass(n_blocks, back, tau, P, R, S):
+            for blk in prange(n_blocks):
+                setup_particles(np.int64(blk), back, tau, P, R, S)
+
+        def setup_slot_pass(n_blocks, back, tau, warm, P, C, S):
+            for blk in prange(n_blocks):
+                setup_slots(np.int64(blk), back, tau, warm, P, C, S)
+
+        def restart_pass(n_blocks, P, C, S):
+            for blk in prange(n_blocks):
+                restart(np.int64(blk), P, C, S)
+
+        def pass1_own(n_blocks, beta, a, P, C, S):
+            for blk in prange(n_blocks):
+                p1_own(np.int64(blk), beta, a, P, C, S)
+
+        def pass1_partner(n_blocks, beta, a, P, C, S):
+            for blk in prange(n_blocks):
+                p1_partner(np.int64(blk), beta, a, P, C, S)
+
+        def pass3(n_blocks, alpha, P, C, S):
+            for blk in prange(n_blocks):
+                p3(np.int64(blk), alpha, P, C, S)
+
+        def finish_pass(n_blocks, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
+            for blk in prange(n_blocks):
+                finish_block(np.int64(blk), step, last, t, dt, tau, P, C, W, B, R, err, S,
+                             half_skin2)
+
+        setup_particle_pass = self._parallel(setup_particle_pass)
+        setup_slot_pass = self._parallel(setup_slot_pass)
+        restart_pass = self._parallel(restart_pass)
+        pass1_own, pass1_partner = self._parallel(pass1_own), self._parallel(pass1_partner)
+        pass3 = self._parallel(pass3)
+
+        def pass1(n_blocks, beta, a, P, C, S):
+            """u = M^-1 J^T p and the blocks' parts of p.(C + W) p (engine.implicit p1_own,
+            p1_partner)."""
+            pass1_own(n_blocks, beta, a, P, C, S)
+            pass1_partner(n_blocks, beta, a, P, C, S)
+
+        finish_pass = self._parallel(finish_pass)
+
+        def block_sum(part, col):
+            total = 0.0
+            for blk in range(part.shape[0]):
+                total += part[blk, col]
+            return total
+
+        def lub_solve(n_blocks, back, tau, warm, P, C, R, S, fp, counters):
+            setup_particle_pass(n_blocks, back, tau, P, R, S)
+            if warm:  # u = M^-1 J^T lam of the impulses kept from the last step
+                pass1(n_blocks, 0.0, RW_LAM, P, C, S)
+            setup_slot_pass(n_blocks, back, tau, warm, P, C, S)
+            part = S.cg_part
+            rho = block_sum(part, 1)
+            if warm and block_sum(part, 0) < 0.0:
+                # the kept impulses would raise the objective above f(0) = 0, where the energy
+                # argument starts: from 0 then
+                restart_pass(n_blocks, P, C, S)
+                rho = block_sum(part, 1)
+            stop_at = fp[3] * fp[3] * block_sum(part, 2)  # relative to b.D^-1 b, b = J v_f
+            iterations = 0
+            beta = 0.0
+            while rho > stop_at and iterations < fp[4]:
+                pass1(n_blocks, beta, RW_Z, P, C, S)
+                pq = block_sum(part, 0)
+                if not pq > 0.0:  # rounding at convergence: nothing left to reduce
+                    break
+                pass3(n_blocks, rho / pq, P, C, S)
+                rho_new = block_sum(part, 1)
+                beta = rho_new / rho
+                rho = rho_new
+                iterations += 1
+            counters[2] += iterations
+            counters[3] = max(counters[3], iterations)
+
+        block_sum = stable_identity(njit(cache=True)(block_sum), f"{self.key}|block_sum")
+        pass1 = stable_identity(njit(cache=True)(pass1), f"{self.key}|pass1")
+        lub_solve = stable_identity(njit(cache=True)(lub_solve), f"{self.key}|lub_solve")
+        return lub_solve, finish_pass
 
 
 # ---- sub-kernels (factories: the spec's options become the closure's constants) ----------------
@@ -308,7 +456,8 @@ def _pair_block_kernel(pair_row):
         """Pair pass for the slots of the block's particles."""
         start, nbr, state, out, proll, stop = C.start, C.nbr, C.state, S.out, S.proll, S.stop
         for i in range(blk * BLOCK, min(P.x.shape[0], (blk + 1) * BLOCK)):
-            pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop)
+            pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop,
+                     S.lub_slots)
 
     return pair_block
 
@@ -316,6 +465,7 @@ def _pair_block_kernel(pair_row):
 def _pair_row_kernel(spec, law, brk, flu, layout, contact):
     """Pair pass for the slots of particle i."""
     PERIODIC, ROLLING, AUDIT = spec.periodic, spec.rolling_friction, layout.audit
+    IMPLICIT = layout.implicit
     SPRING = law.spring_columns
     SLOT, COL_BRK, COL_T = layout.slot_width, SLOT_BASE, layout.slot_fluid
     COL_AUD = layout.slot_audit
@@ -325,7 +475,7 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
     override, loaded = brk.pair_override, brk.pair_loaded
     pair_fluid = flu.pair_fluid
 
-    def pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop):
+    def pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop, rows):
         x, v, w, radius = P.x, P.v, P.w, P.radius
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
@@ -350,8 +500,12 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
                 if ROLLING:
                     proll[k, :, :] = 0.0
                 dist = math.sqrt(dist2)
-                pair_fluid(fp, o, COL_T, COL_D, radius[i], radius[j], d0 / dist, d1 / dist,
-                           d2 / dist, dist - rsum, v, w, i, j)
+                if IMPLICIT:  # the pair's row record for the solve
+                    pair_fluid(fp, rows[k], 0, -1, radius[i], radius[j], d0 / dist, d1 / dist,
+                               d2 / dist, dist - rsum, v, w, i, j)
+                else:
+                    pair_fluid(fp, o, COL_T, COL_D, radius[i], radius[j], d0 / dist, d1 / dist,
+                               d2 / dist, dist - rsum, v, w, i, j)
                 apart_hook(bs, state, k, BASE, o, COL_BRK, step, i, j, radius, P.body, rsum,
                            dist2, rsum - dist - xi_ref, stop)
                 continue
@@ -401,7 +555,10 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
                 o[COL_AUD] = -(fn - fn_el) * vn
                 o[COL_AUD + 1] = -(f0 * dv0 + f1 * dv1 + f2 * dv2)
                 o[COL_AUD + 2] = -(f0 * (vr0 - dv0) + f1 * (vr1 - dv1) + f2 * (vr2 - dv2))
-            pair_fluid(fp, o, COL_T, COL_D, ri, rj, n0, n1, n2, -xi, v, w, i, j)
+            if IMPLICIT:
+                pair_fluid(fp, rows[k], 0, -1, ri, rj, n0, n1, n2, -xi, v, w, i, j)
+            else:
+                pair_fluid(fp, o, COL_T, COL_D, ri, rj, n0, n1, n2, -xi, v, w, i, j)
             loaded(bs, state, k, BASE, o, COL_BRK, fn, xi_c, P.material[i], P.material[j])
             if ROLLING:
                 wi = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
@@ -418,14 +575,15 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
 
 
 def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
-    """Particle pass for one block: gather, walls, breakage decision, integrate."""
-    WALLS, PRESSURE = spec.walls, spec.normal_force_sum
+    """Particle pass for one block: gather, walls, breakage decision, integrate (with implicit
+    lubrication: keep the loads for the solve; ``_lub_finish_kernel`` integrates)."""
+    WALLS, PRESSURE, IMPLICIT = spec.walls, spec.normal_force_sum, layout.implicit
     decide = brk.particle_decide
 
     def particle_block(blk, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
         prime = dt == 0.0  # the start state's forces: nothing advances (see run_chunk)
         x, x_ref = P.x, P.x_ref
-        stop, rebuild = S.stop, S.rebuild
+        stop, rebuild, lub = S.stop, S.rebuild, S.lub_particle
         for i in range(blk * BLOCK, min(x.shape[0], (blk + 1) * BLOCK)):
             F0, F1, F2, T0, T1, T2, FS, acc = gather(i, P, C, S, blk, bs)
             if WALLS and P.body[i] < 0:
@@ -435,6 +593,10 @@ def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
                 P.fn_sum[i] = FS
             if P.body[i] < 0 and not prime:
                 decide(bs, i, acc, P.inv_mass[i], P.material[i], stop)
+            if IMPLICIT:
+                lub[i, LP_FORCE], lub[i, LP_FORCE + 1], lub[i, LP_FORCE + 2] = F0, F1, F2
+                lub[i, LP_FORCE + 3], lub[i, LP_FORCE + 4], lub[i, LP_FORCE + 5] = T0, T1, T2
+                continue
             finish(i, step, last, t, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)
             dx0 = x[i, 0] - x_ref[i, 0]
             dx1 = x[i, 1] - x_ref[i, 1]
@@ -448,8 +610,8 @@ def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
 def _gather_kernel(spec, brk, layout):
     """Sum the slot records of particle i in a fixed order: its own slots, then those where it is
     the partner (forces, torques with their lever arms, rolling and lubrication torques)."""
-    ROLLING, AUDIT, PRESSURE, FLUID = (spec.rolling_friction, layout.audit,
-                                       spec.normal_force_sum, layout.fluid)
+    ROLLING, AUDIT, PRESSURE = spec.rolling_friction, layout.audit, spec.normal_force_sum
+    FLUID = layout.fluid and not layout.implicit  # explicit lubrication torques in the record
     COL_BRK, COL_T, COL_AUD = SLOT_BASE, layout.slot_fluid, layout.slot_audit
     share = brk.slot_share
 
@@ -516,8 +678,10 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
     """Contacts (and lubrication) of free particle i with every wall; the reaction on each wall
     goes to its block's partial sums."""
     ROLLING, AUDIT, PRESSURE = spec.rolling_friction, layout.audit, spec.normal_force_sum
+    IMPLICIT = layout.implicit
     SPRING = law.spring_columns
     reference, loaded, wall_fluid = brk.wall_reference, brk.wall_loaded, flu.wall_fluid
+    wall_rows = flu.wall_rows
     wall_apart = brk.wall_apart
 
     def walls(i, step, dt, P, W, R, err, S, blk, bs, fp, F0, F1, F2, T0, T1, T2, FS, acc):
@@ -527,10 +691,17 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
         for iw in range(W.table.shape[0]):
             wall = W.table[iw]
             if wall[10] == 0.0:  # disabled
+                if IMPLICIT:
+                    row_absent(S.lub_rows[i, iw])
                 continue
             xi, n0, n1, n2, u0, u1, u2 = wall_contact(wall, x[i, 0], x[i, 1], x[i, 2], ri)
-            fluid, g0, g1, g2, c0, c1, c2, Dn, Dt, cp0, cp1, cp2, pw = wall_fluid(
-                fp, wall, x, v, w, i, ri, n0, n1, n2, xi)
+            if IMPLICIT:  # the row for the solve (applied in _lub_finish_kernel)
+                wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, S.lub_rows[i, iw])
+                fluid, g0, g1, g2, c0, c1, c2, Dn, Dt, cp0, cp1, cp2, pw = (
+                    False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            else:
+                fluid, g0, g1, g2, c0, c1, c2, Dn, Dt, cp0, cp1, cp2, pw = wall_fluid(
+                    fp, wall, x, v, w, i, ri, n0, n1, n2, xi)
             if fluid:
                 F0 += g0
                 F1 += g1
@@ -616,6 +787,89 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
         return F0, F1, F2, T0, T1, T2, FS, acc
 
     return walls
+
+
+def _lub_finish_kernel(spec, layout, finish):
+    """With implicit lubrication, the rest of the particle pass for one block: the loads kept by
+    the particle pass plus the solved impulses over the kick (pair rows equal and opposite, wall
+    rows with their reaction on the wall), the audit of the rows' power, then the integrator and
+    the skin check."""
+    WALLS, AUDIT = spec.walls, layout.audit
+
+    def lub_finish_block(blk, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
+        prime = dt == 0.0  # the start state's loads: nothing advances (see run_chunk)
+        x, x_ref, body = P.x, P.x_ref, P.body
+        start, rev_start, rev_slot, out = C.start, C.rev_start, C.rev_slot, S.lub_slots
+        lub, rows, wall_part, audit_part = S.lub_particle, S.lub_rows, S.wall_part, S.audit_part
+        inv = 1.0 / tau  # impulse over the kick -> force
+        for i in range(blk * BLOCK, min(x.shape[0], (blk + 1) * BLOCK)):
+            F0, F1, F2 = lub[i, LP_FORCE], lub[i, LP_FORCE + 1], lub[i, LP_FORCE + 2]
+            T0, T1, T2 = lub[i, LP_FORCE + 3], lub[i, LP_FORCE + 4], lub[i, LP_FORCE + 5]
+            for k in range(start[i], start[i + 1]):
+                o = out[k]
+                if o[RW_ACT] == 0.0:
+                    continue
+                f = row_impulse(o)  # the impulse on i is -J^T lam
+                F0 -= f[0] * inv
+                F1 -= f[1] * inv
+                F2 -= f[2] * inv
+                T0 -= f[3] * inv
+                T1 -= f[4] * inv
+                T2 -= f[5] * inv
+                if AUDIT:
+                    pn, pt = row_power(o, tau)
+                    audit_part[blk, 3] += pn
+                    audit_part[blk, 4] += pt
+            for q in range(rev_start[i], rev_start[i + 1]):
+                o = out[rev_slot[q]]
+                if o[RW_ACT] == 0.0:
+                    continue
+                f = row_impulse(o)
+                F0 += f[0] * inv
+                F1 += f[1] * inv
+                F2 += f[2] * inv
+                T0 -= f[6] * inv
+                T1 -= f[7] * inv
+                T2 -= f[8] * inv
+            if WALLS and body[i] < 0:
+                for iw in range(rows.shape[1]):
+                    o = rows[i, iw]
+                    if o[RW_ACT] == 0.0:
+                        continue
+                    f = row_impulse(o)
+                    g0, g1, g2 = -f[0] * inv, -f[1] * inv, -f[2] * inv
+                    c0, c1, c2 = -f[3] * inv, -f[4] * inv, -f[5] * inv
+                    F0 += g0
+                    F1 += g1
+                    F2 += g2
+                    T0 += c0
+                    T1 += c1
+                    T2 += c2
+                    # reaction on the wall: force through the sphere's centre plus the couple,
+                    # about the wall's point, and the power the wall gives (its rigid motion)
+                    wall = W.table[iw]
+                    cp0, cp1, cp2 = x[i, 0] - wall[1], x[i, 1] - wall[2], x[i, 2] - wall[3]
+                    wp = wall_part[blk, iw]
+                    wp[0] -= g0
+                    wp[1] -= g1
+                    wp[2] -= g2
+                    wp[3] -= cp1 * g2 - cp2 * g1 + c0
+                    wp[4] -= cp2 * g0 - cp0 * g2 + c1
+                    wp[5] -= cp0 * g1 - cp1 * g0 + c2
+                    wp[6] -= (g0 * o[RW_VJ] + g1 * o[RW_VJ + 1] + g2 * o[RW_VJ + 2]
+                              + c0 * o[RW_VJ + 3] + c1 * o[RW_VJ + 4] + c2 * o[RW_VJ + 5])
+                    if AUDIT:
+                        pn, pt = row_power(o, tau)
+                        audit_part[blk, 3] += pn
+                        audit_part[blk, 4] += pt
+            finish(i, step, last, t, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)
+            dx0 = x[i, 0] - x_ref[i, 0]
+            dx1 = x[i, 1] - x_ref[i, 1]
+            dx2 = x[i, 2] - x_ref[i, 2]
+            if dx0 * dx0 + dx1 * dx1 + dx2 * dx2 > half_skin2:
+                S.rebuild[0] = 1
+
+    return lub_finish_block
 
 
 def _finish_kernel(spec):

@@ -43,6 +43,12 @@ Fluid hooks (``fp``: the fluid's parameter array):
   torques on i and j into o[col_t:col_t+6], dissipation into o[col_d:col_d+2] (col_d < 0: none).
 - ``wall_fluid(fp, wall, x, v, w, i, ri, n0, n1, n2, xi) -> (active, force(3), couple(3),
   dissipation normal, tangential, lever(3), power)``.
+
+A fluid integrated implicitly (its ``implicit`` attribute true; :mod:`millsim.engine.implicit`)
+writes resistance rows instead of forces: ``pair_fluid`` fills the row record at o[col_t:]
+(``implicit.row_write``) and ``wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec)`` the record
+``rec`` of particle i and that wall (``rec[RW_ACT] = 0`` beyond its reach); ``wall_fluid`` is
+not called.
 """
 
 import types
@@ -55,7 +61,7 @@ from numba import njit
 BreakageKernels = namedtuple("BreakageKernels", [
     "pair_reference", "pair_apart", "pair_override", "pair_loaded", "slot_share",
     "wall_reference", "wall_apart", "wall_loaded", "particle_decide", "collect"])
-FluidKernels = namedtuple("FluidKernels", ["pair_fluid", "wall_fluid"])
+FluidKernels = namedtuple("FluidKernels", ["pair_fluid", "wall_fluid", "wall_rows"])
 
 
 def stable_identity(dispatcher, key):
@@ -160,8 +166,13 @@ def _no_wall_fluid(fp, wall, x, v, w, i, ri, n0, n1, n2, xi):
     return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
+def _no_wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):
+    pass
+
+
 NO_FLUID = FluidKernels(_hook(_no_pair_fluid, "no_fluid.pair_fluid"),
-                        _hook(_no_wall_fluid, "no_fluid.wall_fluid"))
+                        _hook(_no_wall_fluid, "no_fluid.wall_fluid"),
+                        _hook(_no_wall_rows, "no_fluid.wall_rows"))
 
 
 class ParticleModel:
@@ -179,6 +190,7 @@ class ParticleModel:
     slot_columns = ()
     particle_fields = {}
     event_columns = 0
+    implicit = False  # a fluid whose resistance the loop integrates implicitly (engine.implicit)
 
     def attach(self, sim):
         """Called once by the Simulation that owns this model (after particles exist)."""

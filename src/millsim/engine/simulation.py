@@ -187,6 +187,10 @@ class Simulation:
         for model, kind in ((breakage, "breakage"), (fluid, "fluid")):
             if model is not None and getattr(model, "kind", None) != kind:
                 raise ValueError(f"{kind}: expected a {kind} model, got {model!r}")
+        if fluid is not None and fluid.implicit and spec.integrator != "verlet":
+            # the implicit solve is a leapfrog kick (engine.implicit); Gear has none
+            raise ValueError(f"fluid: the implicit lubrication scheme needs integrator 'verlet', "
+                             f"got {spec.integrator!r}")
         self.thickness = float(thickness)
         self.pair_params = table.pair_params(spec.convention)
         radius = np.asarray(radius, dtype=float)
@@ -209,7 +213,8 @@ class Simulation:
                              len(breakage.contact_columns) if breakage else 0,
                              len(breakage.wall_columns) if breakage else 0,
                              len(breakage.slot_columns) if breakage else 0,
-                             fluid is not None, spec.energy_audit)
+                             fluid is not None, spec.energy_audit,
+                             fluid is not None and fluid.implicit)
         # lubrication reaches h_max beyond contact: the neighbour list must hold those pairs
         self.reach = fluid.reach(float(np.max(radius))) if fluid else 0.0
         self.particles = self._make_particles(x, radius, material, v, w, body)
@@ -228,7 +233,7 @@ class Simulation:
         self.step = 0
         # dissipated energy [J] per audit term, then the last step's power [W] per term (the loop
         # integrates trapezoidally; 0 at the start, NaN = unknown after a change of the particles)
-        self.accumulators = Accumulators(np.zeros(2, dtype=np.int64), np.zeros(4, dtype=np.int64),
+        self.accumulators = Accumulators(np.zeros(4, dtype=np.int64), np.zeros(4, dtype=np.int64),
                                          np.zeros(2 * N_AUDIT), np.zeros(1, dtype=np.int64))
         # breakage decisions, a row each (the model names the columns); grows inside the loop
         self.events = np.zeros((64, breakage.event_columns if breakage else 1))

@@ -41,9 +41,15 @@ BodyArrays = namedtuple("BodyArrays", ["table", "members", "load", "impulse", "w
 RunSettings = namedtuple("RunSettings", [
     "pair_params", "gravity", "box_lo", "box_len", "skin", "reach", "dim", "max_overlap", "v_max"])
 # Per-chunk scratch of the loop: slot records and rolling torques per Verlet slot, per-block partial
-# sums of wall loads and audit powers, and the stop and rebuild flags.
-Scratch = namedtuple("Scratch", ["out", "proll", "wall_part", "audit_part", "stop", "rebuild"])
-# counters: [list rebuilds, steps]; err: [guard code, step, particle, partner]; dissipation:
+# sums of wall loads and audit powers, and the stop and rebuild flags; with implicit lubrication
+# (engine.implicit) the rows per slot and per particle and wall, each pair row's share on its
+# partner in a CG product, the per-particle loads and velocities of the solve, and its per-block
+# partial sums (length 0 otherwise).
+Scratch = namedtuple("Scratch", ["out", "proll", "wall_part", "audit_part", "stop", "rebuild",
+                                 "lub_slots", "lub_rows", "lub_partner", "lub_particle",
+                                 "cg_part"])
+# counters: [list rebuilds, steps, implicit-lubrication CG iterations in all, most in one step];
+# err: [guard code, step, particle, partner]; dissipation:
 # energy per audit term [J] then the last step's power per term [W]; n_events: rows used in
 # the events table.
 Accumulators = namedtuple("Accumulators", ["counters", "err", "dissipation", "n_events"])

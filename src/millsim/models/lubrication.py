@@ -5,7 +5,10 @@ model). Formulas, sources and checks: ``/work/shared/reference/lubrication.md`` 
 is implemented is summarised in ``docs/lubrication.md``.
 
 The engine reaches it through :class:`Lubrication` (a fluid model: the pair and wall hooks of
-the step loop and the explicit-integration time-step bound).
+the step loop and the explicit-integration time-step bound). Two integration schemes
+(``docs/lubrication.md``): ``explicit`` (the forces join the contact forces; the step must resolve
+the squeeze relaxation time at h_min) and ``implicit`` (the hooks write resistance rows that the
+loop integrates backward-Euler over each kick, :mod:`millsim.engine.implicit`; no step bound).
 
 Conventions (shared with :mod:`millsim.models.contact`):
 
@@ -33,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..engine.implicit import RW_VJ, row_absent, row_write
 from ..engine.models import FluidKernels, ParticleModel, stable_identity
 from ..engine.timestep import StepBound, TimeStepError
 from .contact import FAST
@@ -40,6 +44,13 @@ from .contact import FAST
 PI = math.pi
 
 INTEGRATORS = ("verlet", "verlet_half_step", "gear")
+SCHEMES = ("explicit", "implicit")
+IMPLICIT_ADVICE = "Lubrication(scheme='implicit'); scene parameter lubrication_scheme=implicit"
+# implicit scheme: relative tolerance on the preconditioned residual of the solve, and the most
+# iterations of one solve. On the quick stirred-mill slice 1e-3 changed the lubrication
+# dissipation of 400 steps by 1.2e-4 (1 Pa s) and 2.9e-4 (10 Pa s) against 1e-7, at 3.2 and 6.1
+# iterations per step (1e-2: 2e-5 and 1.2e-3 at 1.9 and 2.8; bench/lubrication_tolerance.py).
+TOLERANCE, MAX_ITERATIONS = 1e-3, 100
 # recommended dt = SAFETY * dt_stable. lubrication.md 4.5 suggests 0.5; the accuracy study
 # (docs/results/accuracy.md) measured the quick slice's net power at 0.1 Pa s 4.4 +- 1.6 % high
 # at 0.5 x and within 1.2 +- 1.6 % at 0.25 x the limit.
@@ -212,6 +223,33 @@ def wall_force_torque(a, n0, n1, n2, h, vc0, vc1, vc2, wi0, wi1, wi2, ww0, ww1, 
             d_n, d_t)
 
 
+@njit(cache=True, fastmath=FAST)
+def pair_rows(ai, aj, h, h_min, eta):
+    """The pair law as the implicit scheme's rows (engine.implicit): (k_n, k_s, k_r, b_i, b_j).
+
+    D = X11A g_n^2 + Y11A |g_s|^2 + sigma |g_r|^2 with g_s = P.v_ij + b_i (w_i x n) + b_j (w_j x n),
+    b_i = Y11B/Y11A, b_j = Y21B/Y11A, g_r = (w_i - w_j) x n and sigma = Y11C - Y11B^2/Y11A: the
+    dissipation of :func:`pair_force_torque` written as a sum of squares, so J^T K J is its
+    resistance matrix (Y12C and Y22C follow from the identities of the module text).
+    """
+    x11a, y11a, y11b, y21b, y11c, _, _ = pair_resistances(ai, aj, h, h_min, eta)
+    if not y11a > 0.0:  # log clamped: the squeeze term only
+        return x11a, 0.0, 0.0, 0.0, 0.0
+    bi = y11b / y11a
+    return x11a, y11a, max(y11c - y11b * bi, 0.0), bi, y21b / y11a
+
+
+@njit(cache=True, fastmath=FAST)
+def wall_rows(a, h, h_min, eta):
+    """The sphere-wall law as rows: (k_n, k_s, k_r, b) = (X_w, YA_w, YC_w - YB_w^2/YA_w, YB_w/YA_w),
+    the wall being the pair's partner j with b_j = -b (its velocity and spin subtracted)."""
+    x_w, ya, yb, yc = wall_resistances(a, h, h_min, eta)
+    if not ya > 0.0:
+        return x_w, 0.0, 0.0, 0.0
+    b = yb / ya
+    return x_w, ya, max(yc - yb * b, 0.0), b
+
+
 # --------------------------------------------------------------------------------------------------
 # Parameters and time step (plain Python)
 # --------------------------------------------------------------------------------------------------
@@ -250,6 +288,24 @@ def check_lubrication_params(eta, h_min, h_max, a_min=0.5):
                          f"{xi_max:g} >= 1 for the smallest beads (a_min = {a_min:g}), where the "
                          f"log terms change sign; use h_max < a_min (typically 0.05 d)")
     return h_min / a_min, xi_max
+
+
+def check_scheme(scheme, tolerance=TOLERANCE, max_iterations=MAX_ITERATIONS):
+    """Validate the integration scheme and the implicit solve's settings; raise ValueError naming
+    the offending key."""
+    if scheme not in SCHEMES:
+        raise ValueError(f"lubrication.scheme: must be one of {list(SCHEMES)}, got {scheme!r}")
+    try:
+        tolerance = float(tolerance)
+    except (TypeError, ValueError):
+        raise ValueError(f"lubrication.tolerance: must be a number, got {tolerance!r}") from None
+    if not (math.isfinite(tolerance) and 0.0 < tolerance < 1.0):
+        raise ValueError(f"lubrication.tolerance: relative residual of the implicit solve must be "
+                         f"in (0, 1), got {tolerance!r}")
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) \
+            or max_iterations < 1:
+        raise ValueError(f"lubrication.max_iterations: must be an integer >= 1, got "
+                         f"{max_iterations!r}")
 
 
 def _gear_map(W2, G):
@@ -359,8 +415,8 @@ class LubricationStepLimit:
         """Refusal text for a requested dt above dt_stable."""
         return (f"dt: {dt:.4g} s exceeds the stability limit {self.dt_stable:.4g} s of "
                 f"{self.describe()}; use dt <= {self.dt_recommended:.4g} s, or a larger h_min "
-                f"(dt_stable grows about linearly with h_min), or a lower viscosity; "
-                f"implicit lubrication is not implemented")
+                f"(dt_stable grows about linearly with h_min), or a lower viscosity, or the "
+                f"implicit scheme ({IMPLICIT_ADVICE})")
 
     def check(self, dt):
         """Return dt if dt <= dt_stable, else raise timestep.TimeStepError with :meth:`message`."""
@@ -374,7 +430,7 @@ class LubricationStepLimit:
         """The bound as a :class:`~millsim.engine.timestep.StepBound` (to add to a TimeStepReport)."""
         return StepBound("lubrication", self.describe(), self.dt_stable, self.dt_recommended,
                          advice=", or a larger h_min (dt_stable grows about linearly with h_min), "
-                                "or a lower viscosity; implicit lubrication is not implemented")
+                                f"or a lower viscosity, or the implicit scheme ({IMPLICIT_ADVICE})")
 
 
 def lubrication_dt_limit(eta, h_min, a_min, m_min, k_n, gamma_n, integrator="verlet"):
@@ -419,7 +475,9 @@ def lubrication_dt_limit(eta, h_min, a_min, m_min, k_n, gamma_n, integrator="ver
 # --------------------------------------------------------------------------------------------------
 # The fluid model the engine runs
 # --------------------------------------------------------------------------------------------------
-ETA, H_MIN, H_MAX = 0, 1, 2  # params: viscosity [Pa s], cutoffs as fractions of the smaller diameter
+# params: viscosity [Pa s], cutoffs as fractions of the smaller diameter, and the implicit solve's
+# tolerance and iteration limit (read by the loop as fp[3], fp[4])
+ETA, H_MIN, H_MAX, TOL, MAX_IT = 0, 1, 2, 3, 4
 
 
 def _pair_fluid(fp, o, col_t, col_d, ri, rj, n0, n1, n2, h, v, w, i, j):
@@ -479,7 +537,45 @@ def _kernel(fn):
                            f"lubrication.{fn.__name__}")
 
 
-KERNELS = FluidKernels(_kernel(_pair_fluid), _kernel(_wall_fluid))
+def _pair_rows(fp, o, col_t, col_d, ri, rj, n0, n1, n2, h, v, w, i, j):
+    """Implicit scheme: ``o`` is the pair's row record (engine.implicit; col_t, col_d unused):
+    written, or marked absent (RW_ACT = 0) from h_max on. Cutoffs of the smaller diameter."""
+    d_min = 2.0 * min(ri, rj)
+    if h >= fp[H_MAX] * d_min or not fp[ETA] > 0.0:
+        row_absent(o)
+        return
+    kn, ks, kr, bi, bj = pair_rows(ri, rj, h, fp[H_MIN] * d_min, fp[ETA])
+    row_write(o, n0, n1, n2, kn, ks, kr, bi, bj)
+
+
+def _wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):
+    """Implicit scheme: the row of particle i at a wall, with the wall's rigid velocity at the
+    sphere's centre and its spin as the partner's motion (the explicit law's frame)."""
+    if not (-xi < fp[H_MAX] * 2.0 * ri and fp[ETA] > 0.0):
+        row_absent(rec)
+        return
+    om = wall[8]
+    cp0 = x[i, 0] - wall[1]
+    cp1 = x[i, 1] - wall[2]
+    cp2 = x[i, 2] - wall[3]
+    kn, ks, kr, b = wall_rows(ri, -xi, fp[H_MIN] * 2.0 * ri, fp[ETA])
+    row_write(rec, n0, n1, n2, kn, ks, kr, b, -b)
+    rec[RW_VJ] = om * (wall[5] * cp2 - wall[6] * cp1)
+    rec[RW_VJ + 1] = om * (wall[6] * cp0 - wall[4] * cp2)
+    rec[RW_VJ + 2] = om * (wall[4] * cp1 - wall[5] * cp0)
+    rec[RW_VJ + 3], rec[RW_VJ + 4], rec[RW_VJ + 5] = om * wall[4], om * wall[5], om * wall[6]
+
+
+def _no_wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):
+    pass
+
+
+def _no_wall_fluid(fp, wall, x, v, w, i, ri, n0, n1, n2, xi):
+    return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+KERNELS = FluidKernels(_kernel(_pair_fluid), _kernel(_wall_fluid), _kernel(_no_wall_rows))
+IMPLICIT_KERNELS = FluidKernels(_kernel(_pair_rows), _kernel(_no_wall_fluid), _kernel(_wall_rows))
 
 
 class Lubrication(ParticleModel):
@@ -489,17 +585,39 @@ class Lubrication(ParticleModel):
         eta: viscosity [Pa s] (0: the hooks run but add nothing; a dry scene passes no fluid).
         h_min, h_max: inner and outer gap cutoffs as fractions of the smaller diameter of a pair
             (sphere-wall: of the sphere's diameter).
+        scheme: ``explicit`` (forces with the contacts; the step resolves the squeeze relaxation
+            time, :meth:`step_bounds`) or ``implicit`` (backward-Euler impulses solved each step,
+            engine.implicit; no step bound; Verlet only).
+        tolerance, max_iterations: the implicit solve stops when the preconditioned residual
+            r.D^-1 r is below tolerance^2 of its start, or after max_iterations.
     """
 
-    kind, name = "fluid", "lubrication"
-    kernels = KERNELS
+    kind = "fluid"
+    # (class defaults also serve checkpoints written before the implicit scheme existed)
+    scheme, tolerance, max_iterations = "explicit", TOLERANCE, MAX_ITERATIONS
 
-    def __init__(self, eta=0.0, h_min=0.001, h_max=0.05):
+    def __init__(self, eta=0.0, h_min=0.001, h_max=0.05, scheme="explicit", tolerance=TOLERANCE,
+                 max_iterations=MAX_ITERATIONS):
         check_lubrication_params(eta, h_min, h_max)
+        check_scheme(scheme, tolerance, max_iterations)
         self.eta, self.h_min, self.h_max = float(eta), float(h_min), float(h_max)
+        self.scheme, self.tolerance, self.max_iterations = scheme, float(tolerance), max_iterations
+
+    @property
+    def implicit(self):
+        return self.scheme == "implicit"
+
+    @property
+    def name(self):  # part of the compiled loop's identity
+        return "lubrication_implicit" if self.implicit else "lubrication"
+
+    @property
+    def kernels(self):
+        return IMPLICIT_KERNELS if self.implicit else KERNELS
 
     def params(self):
-        return np.array([self.eta, self.h_min, self.h_max], dtype=float)
+        return np.array([self.eta, self.h_min, self.h_max, self.tolerance, self.max_iterations],
+                        dtype=float)
 
     def reach(self, max_radius):
         """How far beyond contact pairs interact: the neighbour list must hold those pairs."""
@@ -507,8 +625,9 @@ class Lubrication(ParticleModel):
 
     def step_bounds(self, smallest):
         """Explicit stability with lubrication, from the smallest free particle (lubrication.md
-        4): ``smallest`` = (radius, mass, k_n, gamma_n, integrator); none when eta = 0."""
-        if self.eta <= 0:
+        4): ``smallest`` = (radius, mass, k_n, gamma_n, integrator); none when eta = 0 or with the
+        implicit scheme (unconditionally stable: the contacts set the step)."""
+        if self.eta <= 0 or self.implicit:
             return ()
         a_min, m_min, k_n, gamma_n, integrator = smallest
         return (lubrication_dt_limit(self.eta, self.h_min * 2.0 * a_min, a_min, m_min, k_n,

@@ -25,7 +25,7 @@ from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.kinematics import CYLINDER_INNER, CYLINDER_OUTER, PLANE
 from ..models import Interaction, Lubrication, Material, MaterialTable
 from ..models.contact import linear_contact_time
-from ..models.lubrication import check_lubrication_params
+from ..models.lubrication import SCHEMES, TOLERANCE, check_lubrication_params
 from ..models.materials import damping_ratio
 from ..util.stats import block_mean_ci
 from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
@@ -48,6 +48,12 @@ PARAMS = (
           "1", 0.0, lo_open=True),
     Param("h_max", 0.05, "lubrication outer cutoff, fraction of the smaller diameter of a pair",
           "1", 0.0, 0.5, True, True),
+    Param("lubrication_scheme", "explicit", "integration of the lubrication: explicit (the "
+          "automatic step resolves the squeeze relaxation time at h_min) or implicit (backward-"
+          "Euler impulses solved each step; the contacts set the step; docs/lubrication.md)",
+          choices=SCHEMES),
+    Param("lubrication_tolerance", TOLERANCE, "implicit scheme: relative residual at which the "
+          "solve of each step stops", "1", 0.0, 1.0, True, True),
     Param("filling", 0.432, "bead solid volume / void volume (Table 2: 0.393 l / 0.910 l)", "1",
           0.0, 0.74, True, True),
     Param("n_beads", 0, "number of beads; 0 = from filling", "1", 0),
@@ -275,7 +281,9 @@ def build(values):
                      step=step_policy(values, impact_speed=max(1.0, g["tip_speed"])),
                      guards=Guards(max_overlap=values["max_overlap"],
                                    v_max=max(50.0, 5 * g["tip_speed"])),
-                     fluid=Lubrication(values["eta"], values["h_min"], values["h_max"]) if wet else None,
+                     fluid=Lubrication(values["eta"], values["h_min"], values["h_max"],
+                                       values["lubrication_scheme"],
+                                       values["lubrication_tolerance"]) if wet else None,
                      **periodic)
     m_min = values["density"] * 4 / 3 * math.pi * r_min**3
     zeta = damping_ratio(values["restitution"], spec.convention)
@@ -599,6 +607,9 @@ class StirredMillCase(Case):
         }
         extra = {"contact_time_s": g["t_c"], "normal_stiffness": self.k_n,
                  "list_rebuilds": int(sim.counters[0])}
+        if sim.fluid is not None and sim.fluid.implicit:  # cost of the implicit solve
+            extra.update(lubrication_iterations_per_step=float(sim.counters[2]) / max(sim.step, 1),
+                         lubrication_iterations_max=int(sim.counters[3]))
         return data, coords, extra
 
 
