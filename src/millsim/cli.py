@@ -16,6 +16,7 @@ import threading
 from pathlib import Path
 
 import millsim
+from millsim.util import interrupt
 
 
 def _parse_sets(pairs, option="--set"):
@@ -476,16 +477,12 @@ def build_parser():
     return parser
 
 
-def _interrupted(signum, frame):
-    # SIGTERM (Snakemake, SLURM at the time limit) ends a run like Ctrl-C: the finally blocks of
-    # the writers remove their temporary files
-    raise KeyboardInterrupt(signum)
-
-
 def main(argv=None):
     args = build_parser().parse_args(argv)
     in_main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _interrupted) if in_main_thread else None
+    # SIGTERM (Snakemake, SLURM at the time limit) ends a run like Ctrl-C: the finally blocks of
+    # the writers remove their temporary files
+    previous = interrupt.install() if in_main_thread else None
     try:
         return args.func(args) or 0
     except KeyboardInterrupt as exc:
@@ -511,7 +508,7 @@ def main(argv=None):
         raise
     finally:
         if in_main_thread:
-            signal.signal(signal.SIGTERM, previous)
+            interrupt.restore(previous)
 
 
 if __name__ == "__main__":

@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..util import interrupt
+
 
 @dataclass(frozen=True)
 class Series:
@@ -219,6 +221,7 @@ def drive(scene, values, ctx, out=None):
         sim.run(n, chunk=n, threads=ctx.threads,
                 on_events=case.on_events if sim.breakage is not None else None)
         steps_total += sim.step - step0
+        interrupt.check()  # a Ctrl-C swallowed on the way (util.interrupt)
         case.after_chunk()
         if len(case.recorded_times()) > records:
             ctx.snapshot(case.sim)  # a frame per record
