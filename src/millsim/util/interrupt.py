@@ -31,5 +31,8 @@ def install():
 
 
 def restore(previous):
+    """Put the handlers of :func:`install` back and forget any request (the command has ended:
+    later runs in the same process must not see it)."""
     for signum, handler in previous.items():
         signal.signal(signum, handler)
+    _requested.clear()
