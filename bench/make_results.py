@@ -9,7 +9,8 @@ that writes it. Files read (any may be missing; its section then says so):
 - ``leave_out_*.json``: bench/leave_out.py (physics compiled out vs in but inactive);
 - ``scaling*.json``: bench/scaling.py (cost vs particle count and time step, peak memory);
 - ``strong_scaling*.json``: bench/strong_scaling.py (the same system on 1, 2, 4, ... cores);
-- ``ls1*.json``: bench/ls1.py (full-scale LS1 stirred mill vs seed 004 Table 3).
+- ``ls1*.json``: bench/ls1.py (full-scale LS1 stirred mill vs seed 004 Table 3);
+- ``size_ratio*.json``: bench/size_ratio.py (multi-level grid at wide size ratios).
 """
 
 import argparse
@@ -309,6 +310,41 @@ def lubrication():
     return text
 
 
+def size_ratio():
+    """Cost per particle-step at wide size ratios: multi-level grid against the single level."""
+    text = ["## Wide size ratios (multi-level grid)", ""]
+    files = _load("size_ratio*.json")
+    if not files:
+        return text + ["No `size_ratio*.json` in bench/out.", ""]
+    for p, d in files:
+        text += [f"`{p.name}` ({_command(d)}; {d['n']} particles, {d['steps']} timed steps per "
+                 f"case, load (1 min) {_load_note(_one_minute(d.get('loadavg')))}). "
+                 "Particle-steps per second of the compiled loop; the single-level code is the "
+                 "commit before the multi-level grid (`--baseline-src`), run in the same "
+                 "invocation. Cases: bench/size_ratio.py's docstring.", ""]
+        base = {r["case"]: r for r in d.get("single_level", [])}
+        ref = {r["case"]: r["particle_steps_per_s"] for r in d["multilevel"]}
+        rows = []
+        for r in d["multilevel"]:
+            b = base.get(r["case"])
+            peer = "bed" if r["case"] == "bed+ball" else "bimodal-1" if r["case"].startswith(
+                "bimodal") else None
+            rel = ref[peer] / r["particle_steps_per_s"] if peer in ref else None
+            rows.append([r["case"], _g(r["ratio"]), r["n"], _g(r["contacts_per_particle"]),
+                         r["list_rebuilds"], _g(r["particle_steps_per_s"] / 1e6),
+                         _g(b["particle_steps_per_s"] / 1e6) if b else "-",
+                         _g(r["particle_steps_per_s"] / b["particle_steps_per_s"]) if b else "-",
+                         _g(rel)])
+        text += [_table(["case", "size ratio", "particles", "contacts/particle", "rebuilds",
+                         "multi-level [M/s]", "single level [M/s]", "speed-up",
+                         "cost vs ratio-1 peer"], rows), ""]
+        text += ["Cost vs ratio-1 peer: cost per particle-step of the case / that of the same "
+                 "bed without the ball (`bed+ball`) or of the monodisperse bed (`bimodal-R`), "
+                 "both multi-level. Issue 17 targets: <= 1.3 (ball, ratio 10) and <= 2 "
+                 "(bimodal, ratio 10).", ""]
+    return text
+
+
 def summary():
     """A few headline numbers, each from the newest file of its kind."""
     text = ["## Summary", ""]
@@ -373,7 +409,7 @@ def main(argv=None):
             "makes largely load-independent. Timings older than the load recording say \"not "
             "recorded\".", ""]
     for section in (summary, throughput, strong_scaling, leave_out, scaling, ls1,
-                    lubrication):
+                    lubrication, size_ratio):
         text += section()
     Path(args.out).write_text("\n".join(text).rstrip() + "\n")
     print(f"wrote {args.out}")

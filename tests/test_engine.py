@@ -48,6 +48,33 @@ def test_verlet_list_equals_brute_force(dim, periodic):
         assert (nbr[rev_slot[rev_start[j]:rev_start[j + 1]]] == j).all()
 
 
+@pytest.mark.parametrize("periodic", [False, True])
+def test_verlet_list_at_wide_size_ratios_equals_brute_force(periodic):
+    """Multi-level grid: radii over a factor 40 (four levels, two empty radius classes dropped),
+    particles straddling periodic faces; the list must still equal the O(N^2) one."""
+    rng = np.random.default_rng(5)
+    box = 0.03
+    # large first: their rows hold the small neighbours, and their reach spans the periodic box
+    # on the middle level (each wrapped cell must be visited once)
+    r = np.concatenate([[4e-3, 5e-3, 8e-3, 10e-3], rng.uniform(0.25e-3, 0.45e-3, 600),
+                        rng.uniform(2.0e-3, 2.4e-3, 40)])
+    n = len(r)
+    x = rng.uniform(0, box, (n, 3))
+    x[:4] = [[0.001, 0.015, 0.015], [0.029, 0.029, 0.001], [0.015, 0.015, 0.015],
+             [0.02, 0.0, 0.025]]
+    body = np.where(rng.random(n) < 0.1, 0, -1).astype(np.int32)
+    box_len = np.full(3, box) if periodic else np.zeros(3)
+    skin = 0.2e-3
+    c = empty_contacts(n, 3)
+    start, nbr, *_ = build_verlet(x, r, body, skin, 3, np.zeros(3), box_len, c.start, c.nbr,
+                                  c.state)
+    expected = brute_force_pairs(x, r, body, skin, box_len)
+    assert _pairs(start, nbr) == expected
+    assert len(nbr) == len(expected)  # no pair listed twice
+    # the large spheres do have small neighbours: the levels were searched across
+    assert sum(1 for i, j in expected if min(r[i], r[j]) < 0.5e-3 and max(r[i], r[j]) > 3e-3) > 50
+
+
 def test_contact_state_survives_rebuild():
     rng = np.random.default_rng(2)
     n = 200

@@ -5,7 +5,8 @@
   direction, restitution of the clipped linear spring-dashpot (closed form derived below), wall
   impulse equal and opposite to the particle's momentum change; rotating cylinders drag the
   particle along omega a x r (Coulomb sliding, |J_t| = mu J_n) and put in work = omega x the
-  angular impulse the particle received about the axis.
+  angular impulse the particle received about the axis; a ball on a plane turning about its
+  normal (a turntable) circles at 2/7 of the table's rate.
 - The integrators inside the compiled loop on a damped linear oscillator (a particle pressed into a
   plane by a constant body force): observed order, the Verlet phase-error constant
   w^3 dt^2 t / 24, and step-by-step agreement with the textbook recurrences (velocity Verlet with
@@ -251,6 +252,39 @@ def test_rotating_cylinder_drags_particle_and_work_is_torque_times_omega(kind, o
     # friction and damping dissipate part of the work (the sign of ke_gain itself depends on e:
     # the normal loss (1 - e^2) m V_N^2 / 2 against the drag's gain)
     assert ke_gain < sim.work(wall=0)
+
+
+# ---- 1c. a plane turning about its normal (turntable, drum end wall) ----------------------------
+
+@pytest.mark.parametrize("omega,point,normal", [(10.0, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+                                                (-15.0, (0.004, -0.002, 0.001), (1.0, 2.0, 2.0))])
+def test_ball_on_a_turntable_circles_at_two_sevenths_of_its_rate(omega, point, normal):
+    """A sphere set down at rest on a plane turning at Omega about its normal slips until it
+    rolls; from then on its centre circles at 2 Omega / 7 in the lab frame, in the table's sense,
+    whatever the start (rolling without slip on the moving surface with I = 2/5 m R^2 gives
+    dv/dt = (2/7) Omega a x v; Weltner 1979, Am. J. Phys. 47:984). A wrong sign or lever arm of the
+    surface velocity gives another rate or sense; a static plane gives none."""
+    a = unit(normal)
+    p0 = np.asarray(point)
+    e1, _ = perpendicular_basis(a)
+    x0 = p0 + 0.02 * e1 + R * a  # resting on the table 20 mm off its axis
+    sim = make_sim(WALL_VERLET, [x0], friction=0.5, walls=[dict(
+        kind="plane", point=point, normal=normal, omega=omega, material="m")], gravity=-9.81 * a)
+    dt = math.pi / W0 / 50.0
+    sim.set_time_step(dt)
+    # slip ends within (2/7) |Omega| 0.02 / (mu g) ~ 0.02 s; 0.1 s discarded
+    sim.run(int(0.1 / dt), chunk=20000)
+    every = 2000
+    t, angle = [], []
+    for k in range(int(0.5 * math.pi / abs(omega / 3.5) / (every * dt))):  # a quarter circle
+        sim.run(every, chunk=every)
+        v = sim.particles.v[0]
+        t.append(k * every * dt)
+        angle.append(math.atan2(np.dot(np.cross(e1, v), a), np.dot(e1, v)))
+    v = sim.particles.v[0]
+    assert abs(np.dot(v, a)) < 1e-6 * np.linalg.norm(v)  # stays on the table
+    rate = np.polyfit(t, np.unwrap(angle), 1)[0]
+    assert rate == pytest.approx(2.0 * omega / 7.0, rel=1e-2)
 
 
 # ---- 2. integrators in the compiled loop: damped linear oscillator ----------------------------

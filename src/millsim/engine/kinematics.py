@@ -4,7 +4,8 @@ Walls are rows of a float table so that one compiled loop serves any mix of them
 
     [kind, px, py, pz, ax, ay, az, radius, omega, material, active]
 
-- ``PLANE``: point p, unit normal a pointing into the domain (static).
+- ``PLANE``: point p, unit normal a pointing into the domain; its surface turns at ``omega``
+  rad/s about the normal through p (a drum's end wall turning with the shell; 0: static).
 - ``CYLINDER_INNER``: particles inside a cylinder of the given radius, axis through p along a, the
   surface rotating at ``omega`` rad/s about a (a drum shell).
 - ``CYLINDER_OUTER``: particles outside the cylinder (a shaft), same rotation convention.
@@ -53,7 +54,12 @@ def wall_contact(wall, x0, x1, x2, r):
     d0, d1, d2 = x0 - p0, x1 - p1, x2 - p2
     if kind == PLANE:
         dist = d0 * a0 + d1 * a1 + d2 * a2
-        return r - dist, a0, a1, a2, 0.0, 0.0, 0.0
+        om = wall[8]
+        if om == 0.0:
+            return r - dist, a0, a1, a2, 0.0, 0.0, 0.0
+        # omega a x (contact - p): the contact point's offset along a drops out of the product
+        return (r - dist, a0, a1, a2, om * (a1 * d2 - a2 * d1), om * (a2 * d0 - a0 * d2),
+                om * (a0 * d1 - a1 * d0))
     along = d0 * a0 + d1 * a1 + d2 * a2
     q0, q1, q2 = d0 - along * a0, d1 - along * a1, d2 - along * a2
     rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)

@@ -38,10 +38,10 @@ def min_image(d, a, box_len):
 
 
 @njit(cache=True)
-def _cell_grid(x, cell_min, box_lo, box_len, dim, max_cells):
+def _extent(x, box_lo, box_len):
+    """Lower corner and extent of the grid: the periodic box, or the particles' bounding box."""
     lo = np.zeros(3)
     ext = np.zeros(3)
-    ncell = np.ones(3, dtype=np.int64)
     n = x.shape[0]
     for a in range(3):
         if box_len[a] > 0.0:
@@ -55,11 +55,17 @@ def _cell_grid(x, cell_min, box_lo, box_len, dim, max_cells):
                 mx = max(mx, x[i, a])
             lo[a] = mn
             ext[a] = mx - mn
-        if a < dim:
-            ncell[a] = max(1, int(ext[a] / cell_min))
-            # With two periodic cells the -1 and +1 neighbours coincide: use one cell instead.
-            if box_len[a] > 0.0 and ncell[a] < 3:
-                ncell[a] = 1
+    return lo, ext
+
+
+@njit(cache=True)
+def _cell_grid(ext, cell_min, box_len, dim, max_cells):
+    ncell = np.ones(3, dtype=np.int64)
+    for a in range(dim):
+        ncell[a] = max(1, int(ext[a] / cell_min))
+        # With two periodic cells the -1 and +1 neighbours coincide: use one cell instead.
+        if box_len[a] > 0.0 and ncell[a] < 3:
+            ncell[a] = 1
     # A few far-flying particles must not blow up the grid: coarsen non-periodic axes.
     coarsened = True
     while coarsened and ncell[0] * ncell[1] * ncell[2] > max_cells:
@@ -71,80 +77,143 @@ def _cell_grid(x, cell_min, box_lo, box_len, dim, max_cells):
     size = np.empty(3)
     for a in range(3):
         size[a] = ext[a] / ncell[a] if ext[a] > 0.0 else cell_min
-    return lo, size, ncell
+    return size, ncell
+
+
+@njit(inline="always", cache=True)
+def _cell_index(xa, lo, size, ncell):
+    return min(max(int((xa - lo) / size), 0), ncell - 1)
 
 
 @njit(cache=True)
-def _bin(x, lo, size, ncell, box_len):
+def _size_levels(radius):
+    """Level of each particle and the number of levels: radius classes a factor 2 apart.
+
+    Multi-level grid of Ogarko & Luding (2012, Comput. Phys. Commun. 183:931): each level has
+    cells sized by its own largest particle, so a few large spheres do not make the cells of
+    thousands of small ones large. Radii within a factor 2 of the smallest share one level (one
+    grid, as a single-level cell list); empty classes are dropped.
+    """
+    n = radius.shape[0]
+    level = np.zeros(n, dtype=np.int64)
+    rmin = np.inf
+    rmax = 0.0
+    for i in range(n):
+        if radius[i] > 0.0:
+            rmin = min(rmin, radius[i])
+        rmax = max(rmax, radius[i])
+    if n == 0 or rmax <= 0.0 or rmax < 2.0 * rmin:
+        return level, 1
+    nclass = 1 + int(math.floor(math.log2(rmax / rmin)))
+    used = np.zeros(nclass, dtype=np.int64)
+    for i in range(n):
+        if radius[i] > 0.0:
+            level[i] = min(int(math.floor(math.log2(radius[i] / rmin))), nclass - 1)
+        used[level[i]] = 1
+    rank = np.zeros(nclass, dtype=np.int64)
+    nlev = 0
+    for c in range(nclass):
+        rank[c] = nlev
+        nlev += used[c]
+    for i in range(n):
+        level[i] = rank[level[i]]
+    return level, nlev
+
+
+@njit(cache=True)
+def _bin_levels(x, radius, level, nlev, skin, lo, ext, box_len, dim, max_cells):
+    """One cell grid per level, binned into shared CSR arrays.
+
+    Returns (rmax, size, ncell, cell_base, cstart, members): level l's cells are
+    ``cell_base[l] ... cell_base[l + 1] - 1`` of ``cstart``; members are particle indices.
+    """
     n = x.shape[0]
+    rmax = np.zeros(nlev)
+    for i in range(n):
+        rmax[level[i]] = max(rmax[level[i]], radius[i])
+    size = np.empty((nlev, 3))
+    ncell = np.empty((nlev, 3), dtype=np.int64)
+    cell_base = np.zeros(nlev + 1, dtype=np.int64)
+    for lv in range(nlev):
+        size[lv], ncell[lv] = _cell_grid(ext, 2.0 * rmax[lv] + skin, box_len, dim, max_cells)
+        cell_base[lv + 1] = cell_base[lv] + ncell[lv, 0] * ncell[lv, 1] * ncell[lv, 2]
     cell_of = np.empty(n, dtype=np.int64)
     for i in range(n):
+        lv = level[i]
         c = 0
         for a in range(2, -1, -1):
-            ci = int((x[i, a] - lo[a]) / size[a])
-            ci = min(max(ci, 0), ncell[a] - 1)
-            c = c * ncell[a] + ci
-        cell_of[i] = c
-    ntot = ncell[0] * ncell[1] * ncell[2]
-    start = np.zeros(ntot + 1, dtype=np.int64)
+            c = c * ncell[lv, a] + _cell_index(x[i, a], lo[a], size[lv, a], ncell[lv, a])
+        cell_of[i] = cell_base[lv] + c
+    ntot = cell_base[nlev]
+    cstart = np.zeros(ntot + 1, dtype=np.int64)
     for i in range(n):
-        start[cell_of[i] + 1] += 1
+        cstart[cell_of[i] + 1] += 1
     for c in range(ntot):
-        start[c + 1] += start[c]
-    fill = start[:-1].copy()
+        cstart[c + 1] += cstart[c]
+    fill = cstart[:-1].copy()
     members = np.empty(n, dtype=np.int64)
     for i in range(n):
         c = cell_of[i]
         members[fill[c]] = i
         fill[c] += 1
-    return cell_of, start, members
+    return rmax, size, ncell, cell_base, cstart, members
 
 
 @njit(inline="always", cache=True)
-def _scan_row(i, x, radius, body, skin, box_len, ncell, cell_of, start, members, out, write):
-    """Count (write=False) or store into ``out`` (write=True) the list row of particle i."""
-    c = cell_of[i]
-    cx = c % ncell[0]
-    cy = (c // ncell[0]) % ncell[1]
-    cz = c // (ncell[0] * ncell[1])
+def _cell_range(xa, reach, lo, size, ncell, periodic):
+    """First cell and count of cells to visit along one axis (wrapped when periodic)."""
+    c = _cell_index(xa, lo, size, ncell)
+    k = int(math.ceil(reach / size))
+    if ncell == 1 or (periodic and 2 * k + 1 >= ncell):
+        return 0, ncell  # every cell of the axis, each once
+    if periodic:
+        return c - k, 2 * k + 1
+    first = max(c - k, 0)
+    return first, min(c + k, ncell - 1) - first + 1
+
+
+@njit(inline="always", cache=True)
+def _wrap(c, ncell):
+    """Periodic image of a cell index at most one box away (cheaper than %)."""
+    if c < 0:
+        return c + ncell
+    if c >= ncell:
+        return c - ncell
+    return c
+
+
+@njit(inline="always", cache=True)
+def _scan_row(i, x, radius, body, skin, box_len, lo, rmax, size, ncell, cell_base, cstart, members,
+              out, write):
+    """Count (write=False) or store into ``out`` (write=True) the list row of particle i.
+
+    Every level is searched within r_i + r_max(level) + skin of particle i.
+    """
     count = 0
-    for dz in range(-1, 2):
-        z = cz + dz
-        if ncell[2] == 1 and dz != 0:
-            continue
-        if z < 0 or z >= ncell[2]:
-            if box_len[2] == 0.0:
-                continue
-            z %= ncell[2]
-        for dy in range(-1, 2):
-            y = cy + dy
-            if ncell[1] == 1 and dy != 0:
-                continue
-            if y < 0 or y >= ncell[1]:
-                if box_len[1] == 0.0:
-                    continue
-                y %= ncell[1]
-            for dx in range(-1, 2):
-                xx = cx + dx
-                if ncell[0] == 1 and dx != 0:
-                    continue
-                if xx < 0 or xx >= ncell[0]:
-                    if box_len[0] == 0.0:
-                        continue
-                    xx %= ncell[0]
-                cell = (z * ncell[1] + y) * ncell[0] + xx
-                for m in range(start[cell], start[cell + 1]):
-                    j = members[m]
-                    if j <= i or (body[i] >= 0 and body[j] >= 0):
-                        continue
-                    d0 = min_image(x[i, 0] - x[j, 0], 0, box_len)
-                    d1 = min_image(x[i, 1] - x[j, 1], 1, box_len)
-                    d2 = min_image(x[i, 2] - x[j, 2], 2, box_len)
-                    cut = radius[i] + radius[j] + skin
-                    if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
-                        if write:
-                            out[count] = j
-                        count += 1
+    for lv in range(rmax.shape[0]):
+        reach = radius[i] + rmax[lv] + skin
+        z0, nz = _cell_range(x[i, 2], reach, lo[2], size[lv, 2], ncell[lv, 2], box_len[2] > 0.0)
+        y0, ny = _cell_range(x[i, 1], reach, lo[1], size[lv, 1], ncell[lv, 1], box_len[1] > 0.0)
+        x0, nx = _cell_range(x[i, 0], reach, lo[0], size[lv, 0], ncell[lv, 0], box_len[0] > 0.0)
+        for dz in range(nz):
+            z = _wrap(z0 + dz, ncell[lv, 2])
+            for dy in range(ny):
+                y = _wrap(y0 + dy, ncell[lv, 1])
+                for dx in range(nx):
+                    xx = _wrap(x0 + dx, ncell[lv, 0])
+                    cell = cell_base[lv] + (z * ncell[lv, 1] + y) * ncell[lv, 0] + xx
+                    for m in range(cstart[cell], cstart[cell + 1]):
+                        j = members[m]
+                        if j <= i or (body[i] >= 0 and body[j] >= 0):
+                            continue
+                        d0 = min_image(x[i, 0] - x[j, 0], 0, box_len)
+                        d1 = min_image(x[i, 1] - x[j, 1], 1, box_len)
+                        d2 = min_image(x[i, 2] - x[j, 2], 2, box_len)
+                        cut = radius[i] + radius[j] + skin
+                        if d0 * d0 + d1 * d1 + d2 * d2 < cut * cut:
+                            if write:
+                                out[count] = j
+                            count += 1
     return count
 
 
@@ -153,21 +222,20 @@ def build_verlet(x, radius, body, skin, dim, box_lo, box_len, old_start, old_j, 
     """Build the half Verlet list and carry contact state over from the previous list.
 
     Returns (start, nbr, state, rev_start, rev_slot). ``state`` has the same number of columns as
-    ``old_state``; rows of pairs that were not listed before start at zero.
+    ``old_state``; rows of pairs that were not listed before start at zero. Rows are sorted by j,
+    so the list (and everything computed from it) does not depend on how the grid was cut.
     """
     n = x.shape[0]
-    rmax = 0.0
-    for i in range(n):
-        rmax = max(rmax, radius[i])
-    cell_min = 2.0 * rmax + skin
-    lo, size, ncell = _cell_grid(x, cell_min, box_lo, box_len, dim, max(8 * n, 1000))
-    cell_of, cstart, members = _bin(x, lo, size, ncell, box_len)
+    lo, ext = _extent(x, box_lo, box_len)
+    level, nlev = _size_levels(radius)
+    rmax, size, ncell, cell_base, cstart, members = _bin_levels(
+        x, radius, level, nlev, skin, lo, ext, box_len, dim, max(8 * n, 1000))
 
     counts = np.zeros(n + 1, dtype=np.int64)
     dummy = np.empty(0, dtype=np.int32)
     for i in prange(n):
-        counts[i + 1] = _scan_row(i, x, radius, body, skin, box_len, ncell, cell_of, cstart, members,
-                                  dummy, False)
+        counts[i + 1] = _scan_row(i, x, radius, body, skin, box_len, lo, rmax, size, ncell,
+                                  cell_base, cstart, members, dummy, False)
     for i in range(n):
         counts[i + 1] += counts[i]
     start = counts
@@ -176,7 +244,8 @@ def build_verlet(x, radius, body, skin, dim, box_lo, box_len, old_start, old_j, 
     state = np.zeros((start[n], ncol))
     for i in prange(n):
         row = nbr[start[i]:start[i + 1]]
-        _scan_row(i, x, radius, body, skin, box_len, ncell, cell_of, cstart, members, row, True)
+        _scan_row(i, x, radius, body, skin, box_len, lo, rmax, size, ncell, cell_base, cstart,
+                  members, row, True)
         # Insertion sort: rows are short, and sorted rows make the state merge linear.
         for a in range(1, row.shape[0]):
             v = row[a]

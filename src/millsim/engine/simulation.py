@@ -161,7 +161,8 @@ class Simulation:
         x, radius, material: initial positions [m] (N x dim), radii [m], material names.
         v, w: initial velocities [m/s] and angular velocities [rad/s] (default 0).
         body: kinematic body index per particle (-1 = free; default all free).
-        walls: list of dicts ``{kind, point, normal|axis, radius, omega, material}``.
+        walls: list of dicts ``{kind, point, normal|axis, radius, omega, material}`` (``omega``:
+            rad/s about the axis, or for a plane about its normal through ``point``).
         bodies: list of dicts ``{kind: rotate|translate, center, axis, rate, ramp}`` (``ramp``:
             seconds from rest to ``rate`` at constant acceleration; 0 or absent: at ``rate`` from
             the start).
@@ -332,7 +333,10 @@ class Simulation:
                 table[k, W_RADIUS] = wall["radius"]
                 if table[k, W_RADIUS] <= 0:
                     raise ValueError(f"{key}.radius: must be > 0")
-                table[k, W_OMEGA] = wall.get("omega", 0.0)
+            table[k, W_OMEGA] = wall.get("omega", 0.0)
+            if kind == "plane" and table[k, W_OMEGA] != 0.0 and self.spec.dim == 2:
+                raise ValueError(f"{key}.omega: a plane turning about its normal would carry disks "
+                                 "out of the plane of a 2D run; give 0")
             table[k, W_MATERIAL] = self.material_index(wall["material"])
             table[k, W_ACTIVE] = 1.0
         if len(walls) and not self.spec.walls:
