@@ -79,6 +79,22 @@ def test_impact_faster_than_declared_is_stopped_naming_the_speed():
     assert np.isfinite(sim.particles.v).all()
 
 
+def test_turning_plane_counts_its_surface_speed_at_the_particles():
+    """A plane turning at 1000 rad/s under a particle 0.1 m off its axis moves at 100 m/s there:
+    the same refusal as a 100 m/s particle (a plane has no radius to take the speed from)."""
+    from millsim.engine import SimulationError
+
+    table = MaterialTable([STEEL, ORE], {"*": Interaction(restitution=0.5, friction=0.5)})
+    r = 2.75e-3
+    sim = Simulation(HERTZ, table, x=[[0.1, 0, r + 1e-4]], radius=[r], material="ore",
+                     gravity=(0, 0, 0), step=StepPolicy(impact_speed=1.0),
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), omega=1000.0,
+                                 material="steel")])
+    sim.set_time_step(dt=sim.dt_report.limit)
+    with pytest.raises(SimulationError, match="impacts at 100 m/s.*declare impact_speed"):
+        sim.run(2000, chunk=1000)
+
+
 def test_large_initial_overlap_is_refused_up_front():
     table = MaterialTable([ORE], {"*": Interaction(restitution=0.5, friction=0.5)})
     r = 1e-3

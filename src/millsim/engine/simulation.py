@@ -26,8 +26,10 @@ from .kinematics import (
     B_RATE,
     BODY_COLUMNS,
     BODY_KINDS,
+    PLANE,
     W_ACTIVE,
     W_AXIS,
+    W_KIND,
     W_MATERIAL,
     W_OMEGA,
     W_POINT,
@@ -522,7 +524,13 @@ class Simulation:
         p = self.particles
         speed = float(np.sqrt((p.v[self.free] ** 2).sum(1)).max(initial=0.0))
         if len(self.walls):
-            speed += float(np.abs(self.walls[:, W_RADIUS] * self.walls[:, W_OMEGA]).max())
+            w = self.walls
+            surface = np.abs(w[:, W_RADIUS] * w[:, W_OMEGA])
+            # a turning plane has no radius: its surface speed is omega x the farthest particle
+            for k in np.flatnonzero((w[:, W_KIND] == PLANE) & (w[:, W_OMEGA] != 0.0)):
+                arm = np.cross(w[k, W_AXIS], p.x[self.free] - w[k, W_POINT])
+                surface[k] = abs(w[k, W_OMEGA]) * np.sqrt((arm**2).sum(1)).max(initial=0.0)
+            speed += float(surface.max())
         if len(self.bodies):
             speed += float(np.sqrt((p.v[~self.free] ** 2).sum(1)).max(initial=0.0))
         steps = self.dt_report.steps_per_contact(self.dt, speed)
