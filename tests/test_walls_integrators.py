@@ -6,7 +6,9 @@
   impulse equal and opposite to the particle's momentum change; rotating cylinders drag the
   particle along omega a x r (Coulomb sliding, |J_t| = mu J_n) and put in work = omega x the
   angular impulse the particle received about the axis; a ball on a plane turning about its
-  normal (a turntable) circles at 2/7 of the table's rate.
+  normal (a turntable) circles at 2/7 of the table's rate; an annulus reflects like a plane on
+  either face, about the line to the nearest rim point at its rims, lets a particle through its
+  hole, and a turning one drags like the rotating cylinders.
 - The integrators inside the compiled loop on a damped linear oscillator (a particle pressed into a
   plane by a constant body force): observed order, the Verlet phase-error constant
   w^3 dt^2 t / 24, and step-by-step agreement with the textbook recurrences (velocity Verlet with
@@ -180,6 +182,106 @@ def test_cylinder_rebound_reflects_about_the_radial_normal(kind, point, axis, az
     np.testing.assert_allclose(sim.particles.v[0], e * V_N * n + 0.1 * a, rtol=0,
                                atol=_rebound_tolerance(0.5) * V_N)
     _assert_impulses_balance(sim, m, v0)
+
+
+# ---- 1b'. bounded walls: the annulus (disk with a hole, touched on both faces and both rims) --
+
+R_OUT, R_IN = 0.01, 0.003
+ANNULI = [((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), ((0.002, -0.001, 0.004), (2.0, -1.0, 2.0))]
+
+
+def _annulus(point, normal, omega=0.0):
+    return dict(kind="annulus", point=point, normal=normal, radius=R_OUT, inner_radius=R_IN,
+                omega=omega, material="m")
+
+
+@pytest.mark.parametrize("point,normal", ANNULI)
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_annulus_face_rebound_as_a_plane_from_either_side(point, normal, side):
+    """Oblique impact on either face, between the rims: reflected about that face's normal with
+    the asked e, as from a plane (closed form as above); wall impulse = -m dv."""
+    a = unit(normal)
+    t, _ = perpendicular_basis(a)
+    n = side * a
+    x0 = np.asarray(point) + (R + GAP) * n + 0.006 * t
+    v0 = -V_N * n + 0.15 * t
+    sim, m = _collide([_annulus(point, normal)], x0, v0)
+    np.testing.assert_allclose(sim.particles.v[0], 0.15 * t + 0.5 * V_N * n, rtol=0,
+                               atol=_rebound_tolerance(0.5) * V_N)
+    _assert_impulses_balance(sim, m, v0)
+
+
+@pytest.mark.parametrize("point,normal", ANNULI)
+@pytest.mark.parametrize("rim,height", [(R_OUT, 0.0), (R_OUT, 0.6 * R), (R_IN, -0.5 * R)])
+def test_annulus_rim_rebound_about_the_line_to_the_nearest_rim_point(point, normal, rim, height):
+    """A particle beside the rim (outside the outer one, or in the hole by the inner one, in the
+    plane or above/below it) moving at the nearest rim point: the normal is the line from that
+    point (computed here from the circle) to the centre, the rebound e V_N along it."""
+    a = unit(normal)
+    u, _ = perpendicular_basis(a)
+    c = np.asarray(point) + rim * u  # rim point
+    outward = 1.0 if rim == R_OUT else -1.0  # away from the ring's material
+    offset = outward * math.sqrt((R + GAP) ** 2 - height**2) * u + height * a
+    n = unit(offset)
+    x0 = c + offset
+    v0 = -V_N * n
+    sim, m = _collide([_annulus(point, normal)], x0, v0)
+    np.testing.assert_allclose(sim.particles.v[0], 0.5 * V_N * n, rtol=0,
+                               atol=_rebound_tolerance(0.5) * V_N)
+    _assert_impulses_balance(sim, m, v0)
+
+
+@pytest.mark.parametrize("point,normal", ANNULI)
+def test_annulus_lets_a_particle_through_its_hole(point, normal):
+    """Through the hole along the axis (hole radius 3 R): no contact, no impulse."""
+    a = unit(normal)
+    x0 = np.asarray(point) + (R + GAP) * a
+    v0 = -V_N * a
+    sim, m = _collide([_annulus(point, normal)], x0, v0)
+    steps = int(3.0 * R / V_N / DT_WALL)  # on until it is a radius below the ring
+    sim.run(steps, chunk=steps)
+    assert np.dot(sim.particles.x[0] - np.asarray(point), a) < -R
+    np.testing.assert_array_equal(sim.particles.v[0], v0)
+    np.testing.assert_array_equal(sim.impulse(wall=0), np.zeros(3))
+
+
+@pytest.mark.parametrize("omega", [80.0, -120.0])
+def test_turning_annulus_drags_along_omega_a_x_r_and_work_is_torque_times_omega(omega):
+    """A particle hitting the face of a turning disk slides on it (surface speed >> its slip):
+    tangential impulse along omega a x (c - p) with |J_t| = mu J_n, and the work put in equals
+    omega times the angular momentum the particle gained about the axis (as for the cylinders)."""
+    mu = 0.3
+    point, normal = ANNULI[1]
+    a = unit(normal)
+    t, _ = perpendicular_basis(a)
+    x0 = np.asarray(point) + (R + GAP) * a + 0.006 * t
+    v0 = -V_N * a
+    sim, m = _collide([_annulus(point, normal, omega)], x0, v0, friction=mu)
+    p = sim.particles
+    j = -sim.impulse(wall=0)
+    s = unit(omega * np.cross(a, t))
+    j_n = np.dot(j, a)
+    j_t = j - j_n * a
+    assert j_n == pytest.approx(m * V_N * 1.5, rel=3e-3)
+    np.testing.assert_allclose(j_t / np.linalg.norm(j_t), s, atol=5e-3)
+    assert np.linalg.norm(j_t) == pytest.approx(mu * j_n, rel=5e-3)
+    inertia = 0.4 * m * R**2
+    def l_axis(x, v, w):
+        return np.dot(np.cross(x - np.asarray(point), m * v) + inertia * w, a)
+    dl = l_axis(p.x[0], p.v[0], p.w[0]) - l_axis(x0, v0, np.zeros(3))
+    assert omega * dl > 0
+    assert sim.work(wall=0) == pytest.approx(omega * dl, rel=1e-9)
+
+
+@pytest.mark.parametrize("wall,message", [
+    (dict(kind="annulus", point=(0, 0, 0), normal=(0, 0, 1), radius=0.01, inner_radius=0.01,
+          material="m"), r"walls\[0\].inner_radius: must be in \[0, radius = 0.01\)"),
+    (dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), inner_radius=0.001, material="m"),
+     r"walls\[0\].inner_radius: only an annulus has one"),
+])
+def test_bad_annulus_refused_naming_the_key(wall, message):
+    with pytest.raises(ValueError, match=message):
+        make_sim(WALL_VERLET, [[0.0, 0.0, 0.005]], walls=[wall])
 
 
 def test_clipped_closed_form_against_the_ode():

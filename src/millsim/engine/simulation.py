@@ -29,6 +29,7 @@ from .kinematics import (
     PLANE,
     W_ACTIVE,
     W_AXIS,
+    W_INNER,
     W_KIND,
     W_MATERIAL,
     W_OMEGA,
@@ -164,7 +165,8 @@ class Simulation:
         v, w: initial velocities [m/s] and angular velocities [rad/s] (default 0).
         body: kinematic body index per particle (-1 = free; default all free).
         walls: list of dicts ``{kind, point, normal|axis, radius, omega, material}`` (``omega``:
-            rad/s about the axis, or for a plane about its normal through ``point``).
+            rad/s about the axis, or for a plane about its normal through ``point``; an
+            ``annulus`` also takes ``inner_radius``, 0 for a disk).
         bodies: list of dicts ``{kind: rotate|translate, center, axis, rate, ramp}`` (``ramp``:
             seconds from rest to ``rate`` at constant acceleration; 0 or absent: at ``rate`` from
             the start).
@@ -335,6 +337,15 @@ class Simulation:
                 table[k, W_RADIUS] = wall["radius"]
                 if table[k, W_RADIUS] <= 0:
                     raise ValueError(f"{key}.radius: must be > 0")
+            if kind == "annulus":
+                table[k, W_INNER] = wall.get("inner_radius", 0.0)
+                if not 0.0 <= table[k, W_INNER] < table[k, W_RADIUS]:
+                    raise ValueError(f"{key}.inner_radius: must be in [0, radius = "
+                                     f"{table[k, W_RADIUS]:g}), got {table[k, W_INNER]:g}")
+                if self.spec.dim == 2:
+                    raise ValueError(f"{key}.kind: an annulus is a 3D wall")
+            elif "inner_radius" in wall:
+                raise ValueError(f"{key}.inner_radius: only an annulus has one")
             table[k, W_OMEGA] = wall.get("omega", 0.0)
             if kind == "plane" and table[k, W_OMEGA] != 0.0 and self.spec.dim == 2:
                 raise ValueError(f"{key}.omega: a plane turning about its normal would carry disks "
