@@ -8,7 +8,8 @@
   angular impulse the particle received about the axis; a ball on a plane turning about its
   normal (a turntable) circles at 2/7 of the table's rate; an annulus reflects like a plane on
   either face, about the line to the nearest rim point at its rims, lets a particle through its
-  hole, and a turning one drags like the rotating cylinders.
+  hole; a hopper cone reflects about its normal from either side, a bounded shell ends at its
+  rim; turning disks and cones drag like the rotating cylinders.
 - The integrators inside the compiled loop on a damped linear oscillator (a particle pressed into a
   plane by a constant body force): observed order, the Verlet phase-error constant
   w^3 dt^2 t / 24, and step-by-step agreement with the textbook recurrences (velocity Verlet with
@@ -245,23 +246,87 @@ def test_annulus_lets_a_particle_through_its_hole(point, normal):
     np.testing.assert_array_equal(sim.impulse(wall=0), np.zeros(3))
 
 
+# a hopper: a truncated cone from an orifice of radius 3 mm at height 0 to 13 mm at 20 mm
+CONE = dict(kind="frustum", point=(0.002, -0.001, 0.004), axis=(2.0, -1.0, 2.0),
+            start=(0.0, 0.003), end=(0.02, 0.013), material="m")
+
+
+def _cone_start(azimuth_deg, height, inside=True):
+    """A point on the cone's sheet at the given height and azimuth, the sheet's unit normal there
+    towards the inside (or outside), the meridian tangent and the axis, all from the geometry."""
+    a = unit(CONE["axis"])
+    e1, e2 = perpendicular_basis(a)
+    phi = math.radians(azimuth_deg)
+    u = math.cos(phi) * e1 + math.sin(phi) * e2
+    (z0, r0), (z1, r1) = CONE["start"], CONE["end"]
+    rho = r0 + (r1 - r0) * (height - z0) / (z1 - z0)
+    c = np.asarray(CONE["point"]) + height * a + rho * u
+    dz, dr = (z1 - z0), (r1 - r0)
+    length = math.hypot(dz, dr)
+    tangent = (dz * a + dr * u) / length
+    n = (dr * a - dz * u) / length * (1.0 if inside else -1.0)
+    return c, n, tangent, a
+
+
+@pytest.mark.parametrize("azimuth,height,inside", [(0.0, 0.01, True), (130.0, 0.004, True),
+                                                   (250.0, 0.015, False)])
+def test_cone_rebound_reflects_about_its_normal(azimuth, height, inside):
+    """A hopper wall hit from inside (or outside) with a velocity along its meridian: the normal
+    is the cone's (computed here from its half-angle), the meridian velocity kept (the sheet is
+    straight along it), the normal one reversed and scaled by e."""
+    c, n, tangent, _ = _cone_start(azimuth, height, inside)
+    x0 = c + (R + GAP) * n
+    v0 = -V_N * n + 0.1 * tangent
+    sim, m = _collide([CONE], x0, v0)
+    np.testing.assert_allclose(sim.particles.v[0], 0.1 * tangent + 0.5 * V_N * n, rtol=0,
+                               atol=_rebound_tolerance(0.5) * V_N)
+    _assert_impulses_balance(sim, m, v0)
+
+
+@pytest.mark.parametrize("inside", [True, False])
+def test_bounded_shell_reflects_radially_on_either_side_and_ends_at_its_rim(inside):
+    """A cylinder shell 10 mm long (a frustum with equal radii): hit radially inside or outside
+    within its length, the rebound is radial with e; beside it, 2 mm beyond its end, a particle
+    crosses its radius untouched."""
+    a = unit((1.0, 0.0, 2.0))
+    e1, _ = perpendicular_basis(a)
+    shell = dict(kind="frustum", point=(0.0, 0.0, 0.0), axis=tuple(a), start=(0.0, R_DRUM),
+                 end=(0.01, R_DRUM), material="m")
+    n = -e1 if inside else e1
+    x0 = 0.005 * a + R_DRUM * e1 + (R + GAP) * n
+    sim, m = _collide([shell], x0, -V_N * n)
+    np.testing.assert_allclose(sim.particles.v[0], 0.5 * V_N * n, rtol=0,
+                               atol=_rebound_tolerance(0.5) * V_N)
+    x0 = 0.01 * a + (R + 0.002) * a + R_DRUM * e1 + (R + GAP) * n
+    sim, m = _collide([shell], x0, -V_N * n)
+    np.testing.assert_array_equal(sim.particles.v[0], -V_N * n)
+
+
 @pytest.mark.parametrize("omega", [80.0, -120.0])
-def test_turning_annulus_drags_along_omega_a_x_r_and_work_is_torque_times_omega(omega):
-    """A particle hitting the face of a turning disk slides on it (surface speed >> its slip):
-    tangential impulse along omega a x (c - p) with |J_t| = mu J_n, and the work put in equals
-    omega times the angular momentum the particle gained about the axis (as for the cylinders)."""
+@pytest.mark.parametrize("shape", ["annulus", "cone"])
+def test_turning_sheet_drags_along_omega_a_x_r_and_work_is_torque_times_omega(omega, shape):
+    """A particle hitting the face of a turning disk or hopper slides on it (surface speed >> its
+    slip): tangential impulse along omega a x (c - p) with |J_t| = mu J_n, and the work put in
+    equals omega times the angular momentum the particle gained about the axis (as for the
+    cylinders; on the cone the contact point is off the particle's radius, so the surface speed
+    must be taken there)."""
     mu = 0.3
-    point, normal = ANNULI[1]
-    a = unit(normal)
-    t, _ = perpendicular_basis(a)
-    x0 = np.asarray(point) + (R + GAP) * a + 0.006 * t
-    v0 = -V_N * a
-    sim, m = _collide([_annulus(point, normal, omega)], x0, v0, friction=mu)
+    if shape == "annulus":
+        point, normal = ANNULI[1]
+        a = unit(normal)
+        t, _ = perpendicular_basis(a)
+        wall, n, c = _annulus(point, normal, omega), a, np.asarray(point) + 0.006 * t
+    else:
+        c, n, _, a = _cone_start(40.0, 0.01)
+        wall, point = dict(CONE, omega=omega), CONE["point"]
+    x0 = c + (R + GAP) * n
+    v0 = -V_N * n
+    sim, m = _collide([wall], x0, v0, friction=mu)
     p = sim.particles
     j = -sim.impulse(wall=0)
-    s = unit(omega * np.cross(a, t))
-    j_n = np.dot(j, a)
-    j_t = j - j_n * a
+    s = unit(omega * np.cross(a, c - np.asarray(point)))
+    j_n = np.dot(j, n)
+    j_t = j - j_n * n
     assert j_n == pytest.approx(m * V_N * 1.5, rel=3e-3)
     np.testing.assert_allclose(j_t / np.linalg.norm(j_t), s, atol=5e-3)
     assert np.linalg.norm(j_t) == pytest.approx(mu * j_n, rel=5e-3)
@@ -278,8 +343,12 @@ def test_turning_annulus_drags_along_omega_a_x_r_and_work_is_torque_times_omega(
           material="m"), r"walls\[0\].inner_radius: must be in \[0, radius = 0.01\)"),
     (dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), inner_radius=0.001, material="m"),
      r"walls\[0\].inner_radius: only an annulus has one"),
+    (dict(kind="frustum", point=(0, 0, 0), axis=(0, 0, 1), start=(0.0, 0.01), material="m"),
+     r"walls\[0\]: a frustum needs start and end"),
+    (dict(kind="frustum", point=(0, 0, 0), axis=(0, 0, 1), start=(0.0, 0.01), end=(0.02, -0.01),
+          material="m"), r"walls\[0\]: start .* radii >= 0"),
 ])
-def test_bad_annulus_refused_naming_the_key(wall, message):
+def test_bad_bounded_wall_refused_naming_the_key(wall, message):
     with pytest.raises(ValueError, match=message):
         make_sim(WALL_VERLET, [[0.0, 0.0, 0.005]], walls=[wall])
 

@@ -2,17 +2,20 @@
 
 Walls are rows of a float table so that one compiled loop serves any mix of them:
 
-    [kind, px, py, pz, ax, ay, az, radius, omega, material, active, inner_radius]
+    [kind, px, py, pz, ax, ay, az, radius, omega, material, active, z0, r0, z1, r1]
 
 - ``PLANE``: point p, unit normal a pointing into the domain; its surface turns at ``omega``
   rad/s about the normal through p (a drum's end wall turning with the shell; 0: static).
 - ``CYLINDER_INNER``: particles inside a cylinder of the given radius, axis through p along a, the
   surface rotating at ``omega`` rad/s about a (a drum shell).
 - ``CYLINDER_OUTER``: particles outside the cylinder (a shaft), same rotation convention.
-- ``ANNULUS``: a flat ring of no thickness, centre p, normal a, between ``inner_radius`` (0: a
-  disk) and ``radius``, touched from either side and at its two rims (the rim is the nearest
-  point of a circle: a bounded wall ends where the equipment ends); turning at ``omega`` about a
-  (an agitator disk).
+- ``FRUSTUM``: a thin sheet of revolution about the axis through p along a: the segment from
+  (z0, r0) to (z1, r1) in (height along a, distance from the axis), revolved. A flat ring or disk
+  (z0 = z1, a hole of radius r0 >= 0), a truncated cone (a hopper with its orifice), a cylinder
+  shell that ends where the equipment ends (r0 = r1). Touched from either side and at its two rim
+  circles: the nearest point of the surface lies in the particle's meridian half-plane, where it
+  is the nearest point of the segment. ``radius`` holds max(r0, r1) (its fastest point); the
+  sheet turns at ``omega`` about a (an agitator disk).
 
 ``active`` is 1, or 0 for a wall that has been taken away (e.g. the holder of a bed once the bed
 has settled).
@@ -34,13 +37,14 @@ import math
 
 from numba import njit
 
-PLANE, CYLINDER_INNER, CYLINDER_OUTER, ANNULUS = 0, 1, 2, 3
+PLANE, CYLINDER_INNER, CYLINDER_OUTER, FRUSTUM = 0, 1, 2, 3
+# user-facing kinds; "annulus" and "cone" are frustums (Simulation._wall_table)
 WALL_KINDS = {"plane": PLANE, "cylinder_inner": CYLINDER_INNER, "cylinder_outer": CYLINDER_OUTER,
-              "annulus": ANNULUS}
-WALL_COLUMNS = 12
+              "annulus": FRUSTUM, "frustum": FRUSTUM}
+WALL_COLUMNS = 15
 # named columns of a wall row
 W_KIND, W_POINT, W_AXIS, W_RADIUS, W_OMEGA, W_MATERIAL, W_ACTIVE = 0, slice(1, 4), slice(4, 7), 7, 8, 9, 10
-W_INNER = 11
+W_SEGMENT = slice(11, 15)  # frustum: z0, r0, z1, r1
 
 ROTATE, TRANSLATE = 0, 1
 BODY_KINDS = {"rotate": ROTATE, "translate": TRANSLATE}
@@ -69,8 +73,8 @@ def wall_contact(wall, x0, x1, x2, r):
     along = d0 * a0 + d1 * a1 + d2 * a2
     q0, q1, q2 = d0 - along * a0, d1 - along * a1, d2 - along * a2
     rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-    if kind == ANNULUS:
-        return _annulus_contact(wall, along, q0, q1, q2, rho, r)
+    if kind == FRUSTUM:
+        return _frustum_contact(wall, along, q0, q1, q2, rho, r)
     if rho == 0.0:
         return -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     u0, u1, u2 = q0 / rho, q1 / rho, q2 / rho
@@ -92,26 +96,37 @@ def wall_contact(wall, x0, x1, x2, r):
 
 
 @njit(inline="always", cache=True)
-def _annulus_contact(wall, h, q0, q1, q2, rho, r):
-    """wall_contact of an annulus: the particle's height h above its plane and in-plane offset q
-    (length rho) from its centre."""
+def _frustum_contact(wall, h, q0, q1, q2, rho, r):
+    """wall_contact of a frustum: the particle's height h along the axis and in-plane offset q
+    (length rho) from it."""
     a0, a1, a2 = wall[4], wall[5], wall[6]
-    om = wall[8]
-    side = 1.0 if h >= 0.0 else -1.0
-    if wall[11] <= rho <= wall[7]:  # over the face
-        return (r - abs(h), side * a0, side * a1, side * a2, om * (a1 * q2 - a2 * q1),
-                om * (a2 * q0 - a0 * q2), om * (a0 * q1 - a1 * q0))
-    if rho == 0.0:  # on the axis of the hole: every rim point equally near; their sum is axial
-        return r - math.sqrt(wall[11] * wall[11] + h * h), side * a0, side * a1, side * a2, 0.0, 0.0, 0.0
-    rim = wall[7] if rho > wall[7] else wall[11]
-    s = rim / rho  # the nearest rim point c = p + s q
-    e0, e1, e2 = q0 - s * q0 + h * a0, q1 - s * q1 + h * a1, q2 - s * q2 + h * a2
-    dist = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-    if dist == 0.0:
-        return -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    # the rim point moves at omega a x (c - p)
-    return (r - dist, e0 / dist, e1 / dist, e2 / dist, om * s * (a1 * q2 - a2 * q1),
-            om * s * (a2 * q0 - a0 * q2), om * s * (a0 * q1 - a1 * q0))
+    if rho > 0.0:
+        u0, u1, u2 = q0 / rho, q1 / rho, q2 / rho
+    else:  # on the axis: every meridian is as near; take any
+        if abs(a0) < 0.9:
+            u0, u1, u2 = 0.0, a2, -a1
+        else:
+            u0, u1, u2 = -a2, 0.0, a0
+        norm = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        u0, u1, u2 = u0 / norm, u1 / norm, u2 / norm
+    # nearest point (zc, rc) of the segment to (h, rho) in the meridian half-plane
+    z0, r0 = wall[11], wall[12]
+    dz, dr = wall[13] - z0, wall[14] - r0
+    t = ((h - z0) * dz + (rho - r0) * dr) / (dz * dz + dr * dr)
+    t = min(max(t, 0.0), 1.0)
+    zc, rc = z0 + t * dz, r0 + t * dr
+    ez, er = h - zc, rho - rc
+    dist = math.sqrt(ez * ez + er * er)
+    if dist > 0.0:
+        ez, er = ez / dist, er / dist
+    else:  # centre on the sheet: push along the sheet's normal
+        ln = math.sqrt(dz * dz + dr * dr)
+        ez, er = -dr / ln, dz / ln
+    # Velocity omega a x (contact - axis) at the contact point, mid-overlap (where the loop's
+    # torque lever arm ends, so that power = torque x omega exactly): at radius rc - er xi / 2.
+    om = wall[8] * (rc - 0.5 * (r - dist) * er)
+    return (r - dist, ez * a0 + er * u0, ez * a1 + er * u1, ez * a2 + er * u2,
+            om * (a1 * u2 - a2 * u1), om * (a2 * u0 - a0 * u2), om * (a0 * u1 - a1 * u0))
 
 
 @njit(inline="always", cache=True)

@@ -29,12 +29,12 @@ from .kinematics import (
     PLANE,
     W_ACTIVE,
     W_AXIS,
-    W_INNER,
     W_KIND,
     W_MATERIAL,
     W_OMEGA,
     W_POINT,
     W_RADIUS,
+    W_SEGMENT,
     WALL_COLUMNS,
     WALL_KINDS,
     wall_contact,
@@ -166,7 +166,9 @@ class Simulation:
         body: kinematic body index per particle (-1 = free; default all free).
         walls: list of dicts ``{kind, point, normal|axis, radius, omega, material}`` (``omega``:
             rad/s about the axis, or for a plane about its normal through ``point``; an
-            ``annulus`` also takes ``inner_radius``, 0 for a disk).
+            ``annulus`` takes ``radius`` and ``inner_radius`` (0: a disk), a ``frustum``
+            (truncated cone, bounded cylinder shell) ``start`` and ``end``: [height along the
+            axis from ``point``, radius] [m]).
         bodies: list of dicts ``{kind: rotate|translate, center, axis, rate, ramp}`` (``ramp``:
             seconds from rest to ``rate`` at constant acceleration; 0 or absent: at ``rate`` from
             the start).
@@ -333,18 +335,14 @@ class Simulation:
             table[k, 0] = WALL_KINDS[kind]
             table[k, W_POINT] = np.asarray(wall.get("point", (0, 0, 0)), dtype=float)
             table[k, W_AXIS] = _unit(wall.get("normal", wall.get("axis")), f"{key}.axis")
-            if kind != "plane":
+            if kind in ("cylinder_inner", "cylinder_outer"):
                 table[k, W_RADIUS] = wall["radius"]
                 if table[k, W_RADIUS] <= 0:
                     raise ValueError(f"{key}.radius: must be > 0")
-            if kind == "annulus":
-                table[k, W_INNER] = wall.get("inner_radius", 0.0)
-                if not 0.0 <= table[k, W_INNER] < table[k, W_RADIUS]:
-                    raise ValueError(f"{key}.inner_radius: must be in [0, radius = "
-                                     f"{table[k, W_RADIUS]:g}), got {table[k, W_INNER]:g}")
-                if self.spec.dim == 2:
-                    raise ValueError(f"{key}.kind: an annulus is a 3D wall")
-            elif "inner_radius" in wall:
+            elif kind != "plane":
+                table[k, W_SEGMENT] = self._frustum_segment(key, kind, wall)
+                table[k, W_RADIUS] = max(table[k, W_SEGMENT][1], table[k, W_SEGMENT][3])
+            if kind != "annulus" and "inner_radius" in wall:
                 raise ValueError(f"{key}.inner_radius: only an annulus has one")
             table[k, W_OMEGA] = wall.get("omega", 0.0)
             if kind == "plane" and table[k, W_OMEGA] != 0.0 and self.spec.dim == 2:
@@ -355,6 +353,29 @@ class Simulation:
         if len(walls) and not self.spec.walls:
             raise ValueError("walls: given but spec.walls is false")
         return table
+
+    def _frustum_segment(self, key, kind, wall):
+        """(z0, r0, z1, r1) of a frustum wall; an annulus is the flat ring from inner_radius to
+        radius at height 0."""
+        if self.spec.dim == 2:
+            raise ValueError(f"{key}.kind: {kind} is a 3D wall")
+        if kind == "annulus":
+            outer, inner = wall.get("radius", 0.0), wall.get("inner_radius", 0.0)
+            if not outer > 0.0:
+                raise ValueError(f"{key}.radius: must be > 0")
+            if not 0.0 <= inner < outer:
+                raise ValueError(f"{key}.inner_radius: must be in [0, radius = {outer:g}), got "
+                                 f"{inner:g}")
+            return 0.0, inner, 0.0, outer
+        try:
+            (z0, r0), (z1, r1) = wall["start"], wall["end"]
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"{key}: a frustum needs start and end, each [height along the axis, "
+                             "radius] in m") from None
+        if min(r0, r1) < 0.0 or (z0 == z1 and r0 == r1):
+            raise ValueError(f"{key}: start {[z0, r0]} and end {[z1, r1]} must be distinct "
+                             "points with radii >= 0")
+        return float(z0), float(r0), float(z1), float(r1)
 
     def _body_table(self, bodies):
         table = np.zeros((len(bodies), BODY_COLUMNS))
