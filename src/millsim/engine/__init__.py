@@ -50,10 +50,11 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
 # workqueue fallback take 10-50x longer, which dominates small systems.
 numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
 
+from .insertion import Pour
 from .simulation import Guards, Simulation, SimulationError, StepPolicy
 from .spec import PhysicsSpec
 from .state import BYTES_PER_PARTICLE
 from .timestep import TimeStepError
 
-__all__ = ["BYTES_PER_PARTICLE", "Guards", "PhysicsSpec", "Simulation", "SimulationError",
-           "StepPolicy", "TimeStepError"]
+__all__ = ["BYTES_PER_PARTICLE", "Guards", "PhysicsSpec", "Pour", "Simulation",
+           "SimulationError", "StepPolicy", "TimeStepError"]
