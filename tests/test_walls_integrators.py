@@ -39,6 +39,8 @@ from helpers import clipped_damping_ratio, clipped_linear_restitution
 # (spec, contact law) pairs.
 WALL_VERLET = (PhysicsSpec(dim=3, walls=True), "linear_history")
 WALL_GEAR = (PhysicsSpec(dim=3, integrator="gear", walls=True), "linear_history")
+# frustum and annulus walls are compiled only into runs that declare them (one more kernel)
+WALL_BOUNDED = (PhysicsSpec(dim=3, walls=True, bounded_walls=True), "linear_history")
 BODY_HERTZ = (PhysicsSpec(dim=3, bodies=True), "hertz_mindlin")
 
 R = 1e-3  # particle radius [m]
@@ -95,7 +97,9 @@ def _rebound_tolerance(restitution):
 
 def _collide(walls, x0, v0, restitution=0.5, friction=0.0):
     """Run one particle into the walls until it has left them; return the simulation and m."""
-    sim = make_sim(WALL_VERLET, [x0], [v0], restitution=restitution, friction=friction, walls=walls)
+    bounded = any(w["kind"] in ("frustum", "annulus") for w in walls)
+    sim = make_sim(WALL_BOUNDED if bounded else WALL_VERLET, [x0], [v0], restitution=restitution,
+                   friction=friction, walls=walls)
     sim.set_time_step(DT_WALL)
     # approach + the whole (undamped) contact time + a margin to leave
     steps = int((GAP / V_N + 1.3 * math.pi / W0) / DT_WALL)
@@ -350,7 +354,13 @@ def test_turning_sheet_drags_along_omega_a_x_r_and_work_is_torque_times_omega(om
 ])
 def test_bad_bounded_wall_refused_naming_the_key(wall, message):
     with pytest.raises(ValueError, match=message):
-        make_sim(WALL_VERLET, [[0.0, 0.0, 0.005]], walls=[wall])
+        make_sim(WALL_BOUNDED, [[0.0, 0.0, 0.005]], walls=[wall])
+
+
+def test_bounded_wall_without_the_spec_refused():
+    with pytest.raises(ValueError, match=r"walls\[0\].kind: annulus walls need "
+                                         r"PhysicsSpec\(bounded_walls=True\)"):
+        make_sim(WALL_VERLET, [[0.0, 0.0, 0.005]], walls=[_annulus((0, 0, 0), (0, 0, 1))])
 
 
 def test_clipped_closed_form_against_the_ode():

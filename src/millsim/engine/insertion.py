@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..util.validation import check_range
-from .kinematics import W_ACTIVE, wall_contact
+from .kinematics import W_ACTIVE, wall_contact_bounded
 
 
 @dataclass
@@ -140,7 +140,7 @@ class Pour:
                     d = np.linalg.norm(np.asarray(xs) - x, axis=1) - np.asarray(rs) - r
                     if d.min() < self.gap:
                         continue
-                if any(wall_contact(w, x[0], x[1], x[2], r + self.gap)[0] > 0.0 for w in walls):
+                if any(wall_contact_bounded(w, x[0], x[1], x[2], r + self.gap)[0] > 0.0 for w in walls):
                     continue
                 placed = x
                 break

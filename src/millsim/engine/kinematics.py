@@ -73,8 +73,6 @@ def wall_contact(wall, x0, x1, x2, r):
     along = d0 * a0 + d1 * a1 + d2 * a2
     q0, q1, q2 = d0 - along * a0, d1 - along * a1, d2 - along * a2
     rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-    if kind == FRUSTUM:
-        return _frustum_contact(wall, along, q0, q1, q2, rho, r)
     if rho == 0.0:
         return -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     u0, u1, u2 = q0 / rho, q1 / rho, q2 / rho
@@ -93,6 +91,20 @@ def wall_contact(wall, x0, x1, x2, r):
     w1 = om * (a2 * u0 - a0 * u2)
     w2 = om * (a0 * u1 - a1 * u0)
     return overlap, n0, n1, n2, w0, w1, w2
+
+
+@njit(inline="always", cache=True)
+def wall_contact_bounded(wall, x0, x1, x2, r):
+    """wall_contact with frustum walls too: compiled only where a run has them
+    (PhysicsSpec.bounded_walls), so that the other runs' wall loop stays as small as it was."""
+    if int(wall[0]) != FRUSTUM:
+        return wall_contact(wall, x0, x1, x2, r)
+    a0, a1, a2 = wall[4], wall[5], wall[6]
+    d0, d1, d2 = x0 - wall[1], x1 - wall[2], x2 - wall[3]
+    along = d0 * a0 + d1 * a1 + d2 * a2
+    q0, q1, q2 = d0 - along * a0, d1 - along * a1, d2 - along * a2
+    rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    return _frustum_contact(wall, along, q0, q1, q2, rho, r)
 
 
 @njit(inline="always", cache=True)

@@ -42,7 +42,7 @@ from .implicit import (
     row_power,
 )
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
-from .kinematics import ROTATE, body_motion, body_pose, wall_contact
+from .kinematics import ROTATE, body_motion, body_pose, wall_contact, wall_contact_bounded
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
 from .neighbours import build_verlet, min_image, wrap_periodic
 from .state import ContactList, Scratch
@@ -683,6 +683,7 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
     reference, loaded, wall_fluid = brk.wall_reference, brk.wall_loaded, flu.wall_fluid
     wall_rows = flu.wall_rows
     wall_apart = brk.wall_apart
+    contact_with = wall_contact_bounded if spec.bounded_walls else wall_contact
 
     def walls(i, step, dt, P, W, R, err, S, blk, bs, fp, F0, F1, F2, T0, T1, T2, FS, acc):
         x, v, w = P.x, P.v, P.w
@@ -694,7 +695,7 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
                 if IMPLICIT:
                     row_absent(S.lub_rows[i, iw])
                 continue
-            xi, n0, n1, n2, u0, u1, u2 = wall_contact(wall, x[i, 0], x[i, 1], x[i, 2], ri)
+            xi, n0, n1, n2, u0, u1, u2 = contact_with(wall, x[i, 0], x[i, 1], x[i, 2], ri)
             if IMPLICIT:  # the row for the solve (applied in _lub_finish_kernel)
                 wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, S.lub_rows[i, iw])
                 fluid, g0, g1, g2, c0, c1, c2, Dn, Dt, cp0, cp1, cp2, pw = (

@@ -37,7 +37,7 @@ from .kinematics import (
     W_SEGMENT,
     WALL_COLUMNS,
     WALL_KINDS,
-    wall_contact,
+    wall_contact_bounded,
 )
 from .loop import AUDIT_TERMS, ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED, N_AUDIT, Layout
 from .neighbours import build_verlet, wrap_periodic
@@ -340,6 +340,8 @@ class Simulation:
                 if table[k, W_RADIUS] <= 0:
                     raise ValueError(f"{key}.radius: must be > 0")
             elif kind != "plane":
+                if not self.spec.bounded_walls:
+                    raise ValueError(f"{key}.kind: {kind} walls need PhysicsSpec(bounded_walls=True)")
                 table[k, W_SEGMENT] = self._frustum_segment(key, kind, wall)
                 table[k, W_RADIUS] = max(table[k, W_SEGMENT][1], table[k, W_SEGMENT][3])
             if kind != "annulus" and "inner_radius" in wall:
@@ -407,7 +409,7 @@ class Simulation:
             worst, what = float(ratio[k]), f"particles {i[k]} and {j[k]}"
         for iw, wall in enumerate(self.walls):
             for q in np.flatnonzero(self.free):
-                xi = wall_contact(wall, p.x[q, 0], p.x[q, 1], p.x[q, 2], p.radius[q])[0]
+                xi = wall_contact_bounded(wall, p.x[q, 0], p.x[q, 1], p.x[q, 2], p.radius[q])[0]
                 if xi / p.radius[q] > worst:
                     worst, what = float(xi / p.radius[q]), f"particle {q} and wall {iw}"
         if worst > self.guards.max_overlap:

@@ -28,6 +28,7 @@ class PhysicsSpec:
             comparisons). Either way the damping is set so that a head-on collision returns the
             asked restitution (``models.materials``).
         gravity, walls, bodies, periodic: whether those terms exist at all.
+        bounded_walls: frustum and annulus walls (engine.kinematics) compiled in (needs walls).
         normal_force_sum: keep each particle's sum of contact normal forces (pressure maps,
             force chains).
         energy_audit: integrate the power dissipated by contact damping, by the tangential force
@@ -40,6 +41,7 @@ class PhysicsSpec:
     convention: str = "clipped"
     gravity: bool = True
     walls: bool = False
+    bounded_walls: bool = False
     bodies: bool = False
     periodic: bool = False
     normal_force_sum: bool = False
@@ -52,6 +54,8 @@ class PhysicsSpec:
             raise ValueError(f"integrator: must be one of {INTEGRATORS}, got {self.integrator!r}")
         if self.convention not in CONVENTIONS:
             raise ValueError(f"convention: must be one of {CONVENTIONS}, got {self.convention!r}")
+        if self.bounded_walls and not self.walls:
+            raise ValueError("bounded_walls: needs walls=True")
 
     @property
     def clip_normal(self):
