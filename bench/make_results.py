@@ -334,10 +334,11 @@ def size_ratio():
                          r["list_rebuilds"], _g(r["particle_steps_per_s"] / 1e6),
                          _g(b["particle_steps_per_s"] / 1e6) if b else "-",
                          _g(r["particle_steps_per_s"] / b["particle_steps_per_s"]) if b else "-",
-                         _g(rel)])
+                         _g(rel), _g(r.get("rebuild_ms")), _g(b.get("rebuild_ms")) if b else "-"])
         text += [_table(["case", "size ratio", "particles", "contacts/particle", "rebuilds",
                          "multi-level [M/s]", "single level [M/s]", "speed-up",
-                         "cost vs ratio-1 peer"], rows), ""]
+                         "cost vs ratio-1 peer", "list build, multi-level [ms]",
+                         "list build, single level [ms]"], rows), ""]
         text += ["Cost vs ratio-1 peer: cost per particle-step of the case / that of the same "
                  "bed without the ball (`bed+ball`) or of the monodisperse bed (`bimodal-R`), "
                  "both multi-level. Issue 17 targets: <= 1.3 (ball, ratio 10) and <= 2 "
