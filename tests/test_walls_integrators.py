@@ -451,7 +451,7 @@ def test_ball_on_a_turntable_circles_at_two_sevenths_of_its_rate(omega, point, n
     x0 = p0 + 0.02 * e1 + R * a  # resting on the table 20 mm off its axis
     sim = make_sim(WALL_VERLET, [x0], friction=0.5, walls=[dict(
         kind="plane", point=point, normal=normal, omega=omega, material="m")], gravity=-9.81 * a)
-    dt = math.pi / W0 / 50.0
+    dt = math.pi / W0 / 25.0
     sim.set_time_step(dt)
     # slip ends within (2/7) |Omega| 0.02 / (mu g) ~ 0.02 s; 0.1 s discarded
     sim.run(int(0.1 / dt), chunk=20000)
@@ -465,7 +465,8 @@ def test_ball_on_a_turntable_circles_at_two_sevenths_of_its_rate(omega, point, n
     v = sim.particles.v[0]
     assert abs(np.dot(v, a)) < 1e-6 * np.linalg.norm(v)  # stays on the table
     rate = np.polyfit(t, np.unwrap(angle), 1)[0]
-    assert rate == pytest.approx(2.0 * omega / 7.0, rel=1e-2)
+    # elastic creep of the tangential spring and the step (t_c / 25) leave ~1e-4 (seen: 4e-5)
+    assert rate == pytest.approx(2.0 * omega / 7.0, rel=1e-3)
 
 
 # ---- 2. integrators in the compiled loop: damped linear oscillator ----------------------------
