@@ -326,20 +326,8 @@ def test_turning_sheet_drags_along_omega_a_x_r_and_work_is_torque_times_omega(om
     x0 = c + (R + GAP) * n
     v0 = -V_N * n
     sim, m = _collide([wall], x0, v0, friction=mu)
-    p = sim.particles
-    j = -sim.impulse(wall=0)
-    s = unit(omega * np.cross(a, c - np.asarray(point)))
-    j_n = np.dot(j, n)
-    j_t = j - j_n * n
-    assert j_n == pytest.approx(m * V_N * 1.5, rel=3e-3)
-    np.testing.assert_allclose(j_t / np.linalg.norm(j_t), s, atol=5e-3)
-    assert np.linalg.norm(j_t) == pytest.approx(mu * j_n, rel=5e-3)
-    inertia = 0.4 * m * R**2
-    def l_axis(x, v, w):
-        return np.dot(np.cross(x - np.asarray(point), m * v) + inertia * w, a)
-    dl = l_axis(p.x[0], p.v[0], p.w[0]) - l_axis(x0, v0, np.zeros(3))
-    assert omega * dl > 0
-    assert sim.work(wall=0) == pytest.approx(omega * dl, rel=1e-9)
+    s_dir = unit(omega * np.cross(a, c - np.asarray(point)))
+    _assert_sliding_drag(sim, m, x0, v0, n, s_dir, mu, point, a, omega)
 
 
 @pytest.mark.parametrize("wall,message", [
@@ -388,6 +376,38 @@ def test_clipped_closed_form_against_the_ode():
 
 # ---- 1b. rotating cylinders --------------------------------------------------------------------
 
+def _assert_sliding_drag(sim, m, x0, v0, n, s, mu, point, a, omega):
+    """A particle that slid on a moving wall the whole contact: normal impulse (1 + e) m V_N,
+    tangential impulse along the surface velocity s with |J_t| = mu J_n (Coulomb), and the work
+    the wall put in equal to omega times the angular momentum the particle gained about the axis
+    (orbital + spin; power = torque x omega). Returns that gain."""
+    p = sim.particles
+    j = -sim.impulse(wall=0)  # impulse on the particle
+    j_n = np.dot(j, n)
+    j_t = j - j_n * n
+    # The particle moves along the wall by ~ mu (1+e) V_N t_c / 2 ~ 1e-5 m during the contact,
+    # turning the normal by <= 1e-5 / R_shaft = 3e-3 rad (plus the onset error of
+    # _rebound_tolerance, 1.8e-3 / (1 + e)): tolerances of a few 1e-3.
+    assert j_n == pytest.approx(m * V_N * (1 + 0.5), rel=3e-3)
+    assert np.dot(j_t, s) > 0.0
+    np.testing.assert_allclose(j_t / np.linalg.norm(j_t), s, atol=5e-3)
+    assert np.linalg.norm(j_t) == pytest.approx(mu * j_n, rel=5e-3)
+    # Angular momentum about the axis: (x - p) x m v + I w, projected on a.
+    inertia = 0.4 * m * R**2
+
+    def l_axis(x, v, w):
+        return np.dot(np.cross(x - np.asarray(point), m * v) + inertia * w, a)
+
+    dl = l_axis(p.x[0], p.v[0], p.w[0]) - l_axis(x0, v0, np.zeros(3))
+    assert omega * dl > 0  # dragged in the sense of rotation
+    # Velocity Verlet changes x x m v + I w by the trapezoidal sum of the torques (x_k x F_k plus
+    # the contact torque (r_c - x_k) x F_k), which is the plain sum when the force vanishes at
+    # both ends: equal to minus the wall's summed torque up to round-off. The wall's power is
+    # F . omega a x r_c = omega a . (r_c x F): its work is omega dl up to round-off too.
+    assert sim.work(wall=0) == pytest.approx(omega * dl, rel=1e-9)
+    return dl
+
+
 @pytest.mark.parametrize("kind", ["cylinder_inner", "cylinder_outer"])
 @pytest.mark.parametrize("omega", [80.0, -120.0])
 @pytest.mark.parametrize("point,axis,azimuth", [CYLINDERS[1], CYLINDERS[3]])
@@ -404,31 +424,12 @@ def test_rotating_cylinder_drags_particle_and_work_is_torque_times_omega(kind, o
     sim, m = _collide([wall], x0, v0, friction=mu)
     p = sim.particles
     _assert_impulses_balance(sim, m, v0)
-    j = -sim.impulse(wall=0)  # impulse on the particle
     # surface velocity direction at the contact point r_c = R_wall u (u radial): omega a x u
     u = -n if kind == "cylinder_inner" else n
-    s = unit(omega * np.cross(a, u))
-    j_n = np.dot(j, n)
-    j_t = j - j_n * n
-    # The particle moves along the wall by ~ mu (1+e) V_N t_c / 2 ~ 1e-5 m during the contact,
-    # turning the normal by <= 1e-5 / R_shaft = 3e-3 rad (plus the onset error of
-    # _rebound_tolerance, 1.8e-3 / (1 + e)): tolerances of a few 1e-3.
-    assert j_n == pytest.approx(m * V_N * (1 + 0.5), rel=3e-3)
-    assert np.dot(j_t, s) > 0.0
-    np.testing.assert_allclose(j_t / np.linalg.norm(j_t), s, atol=5e-3)
-    assert np.linalg.norm(j_t) == pytest.approx(mu * j_n, rel=5e-3)
-    # Angular momentum about the axis: (x - p) x m v + I w, projected on a.
-    inertia = 0.4 * m * R**2
-    def l_axis(x, v, w):
-        return np.dot(np.cross(x - np.asarray(point), m * v) + inertia * w, a)
-    dl = l_axis(p.x[0], p.v[0], p.w[0]) - l_axis(x0, v0, np.zeros(3))
-    assert omega * dl > 0  # dragged in the sense of rotation
-    # Velocity Verlet changes x x m v + I w by the trapezoidal sum of the torques (x_k x F_k plus
-    # the contact torque (r_c - x_k) x F_k), which is the plain sum when the force vanishes at
-    # both ends: equal to minus the wall's summed torque up to round-off. The wall's power is
-    # F . omega a x r_c = omega a . (r_c x F): its work is omega dl up to round-off too.
-    assert sim.work(wall=0) == pytest.approx(omega * dl, rel=1e-9)
+    s_dir = unit(omega * np.cross(a, u))
+    dl = _assert_sliding_drag(sim, m, x0, v0, n, s_dir, mu, point, a, omega)
     assert -np.dot(sim.angular_impulse(wall=0), a) == pytest.approx(dl, rel=1e-9)
+    inertia = 0.4 * m * R**2
     ke_gain = 0.5 * m * (p.v[0] @ p.v[0] - v0 @ v0) + 0.5 * inertia * p.w[0] @ p.w[0]
     # friction and damping dissipate part of the work (the sign of ke_gain itself depends on e:
     # the normal loss (1 - e^2) m V_N^2 / 2 against the drag's gain)

@@ -101,7 +101,7 @@ class Pour:
         no wall is known yet to keep it clear of."""
         if self.inserted:
             raise ValueError("pour.first: the pour has started already")
-        x, r = self._place(1, [], [], [])
+        x, r = self._place(1, np.empty((0, 3)), np.empty(0), [])
         self.inserted = 1
         return x, r
 
@@ -117,7 +117,7 @@ class Pour:
         reach = 2.0 * self._largest_radius(p) + self.gap
         near = np.all((p.x > self.lo - reach) & (p.x < self.hi + reach), axis=1)
         walls = [w for w in sim.walls if w[W_ACTIVE] != 0.0]
-        new_x, new_r = self._place(want, list(p.x[near]), list(p.radius[near]), walls)
+        new_x, new_r = self._place(want, p.x[near], p.radius[near], walls)
         self.backlog = want - len(new_r)
         if not len(new_r):
             return np.arange(0)
@@ -129,17 +129,15 @@ class Pour:
     def _place(self, want, xs, rs, walls):
         """Up to ``want`` new (positions, radii), clear of the particles (xs, rs), of each other
         and of the wall rows."""
-        new_x, new_r = [], []
+        first_new = len(rs)
         for _ in range(want):
             # a drawn size is kept until it is placed, so that congestion does not bias the sizes
             r = self._pending_radius if self._pending_radius is not None else self._draw_radius()
             placed = None
             for _ in range(self.attempts):
                 x = self._rng.uniform(self.lo + r, self.hi - r)
-                if xs:
-                    d = np.linalg.norm(np.asarray(xs) - x, axis=1) - np.asarray(rs) - r
-                    if d.min() < self.gap:
-                        continue
+                if len(rs) and (np.linalg.norm(xs - x, axis=1) - rs - r).min() < self.gap:
+                    continue
                 if any(wall_contact_bounded(w, x[0], x[1], x[2], r + self.gap)[0] > 0.0 for w in walls):
                     continue
                 placed = x
@@ -148,11 +146,9 @@ class Pour:
                 self._pending_radius = r
                 break
             self._pending_radius = None
-            xs.append(placed)
-            rs.append(r)
-            new_x.append(placed)
-            new_r.append(r)
-        return np.asarray(new_x).reshape(-1, 3), np.asarray(new_r)
+            xs = np.vstack([xs, placed])
+            rs = np.append(rs, r)
+        return xs[first_new:], rs[first_new:]
 
     def _largest_radius(self, p):
         biggest = self.radius_range[1] if self.radius_range is not None else self.radii.max()
