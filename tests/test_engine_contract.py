@@ -123,8 +123,8 @@ CACHED = textwrap.dedent("""
     sim.run(100)
     (runner,) = _RUNNERS.values()
     print(len(contact.linear_hw.signatures), len(contact.hertz_mindlin.signatures),
-          len(contact.linear_history.signatures), sum(runner.stats.cache_hits.values()),
-          sum(runner.stats.cache_misses.values()))
+          len(contact.linear_history.signatures), sum(runner.advance.stats.cache_hits.values()),
+          sum(runner.advance.stats.cache_misses.values()))
 """)
 
 

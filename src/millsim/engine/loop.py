@@ -1,8 +1,10 @@
 """The assembled step loop: one compiled function per physics specification and model set.
 
-``build_chunk_runner(spec, law, breakage, fluid)`` returns a numba function that advances the
-state by ``n_steps`` steps without returning to Python. It is a composition of small sub-kernels
-(``inline="always"``) over a few named bundles of arrays (:mod:`millsim.engine.state`):
+``build_chunk_runner(spec, law, breakage, fluid)`` returns a :class:`ChunkRunner` that advances the
+state by ``n_steps`` steps: one compiled function (``advance``) runs the steps of a neighbour list's
+lifetime without returning to Python; the runner rebuilds the list between them. ``advance`` is a
+composition of small sub-kernels (``inline="always"``) over a few named bundles of arrays
+(:mod:`millsim.engine.state`):
 
 1. pair pass (parallel over particles): every Verlet slot evaluates its contact into a per-slot
    record (no shared writes): the geometry, the model hooks that decide what overlap counts, one
@@ -10,8 +12,9 @@ state by ``n_steps`` steps without returning to Python. It is a composition of s
 2. particle pass (parallel over fixed blocks): gather the slot records in a fixed order, add wall
    contacts and gravity, let the breakage model decide, finish the integrator step and start the
    next (Verlet drift / Gear predictor), move kinematic-body particles to their prescribed pose;
-3. serial: reduce body and wall loads and the energy audit over fixed blocks, collect the
-   breakage decisions, rebuild the neighbour list when a particle moved more than half the skin.
+3. serial: reduce body and wall loads and the energy audit over fixed blocks; return when a
+   breakage model decided (the runner collects the decisions) or a particle moved more than half
+   the skin (the runner rebuilds the neighbour list).
 
 The physics options of the spec and the models' hooks are frozen into the function: what a scene
 does not use is never typed or compiled (numba prunes branches on the closure's constants before
@@ -95,6 +98,71 @@ class Layout:
     def slot_width(self):
         return self.slot_audit + (N_AUDIT if self.audit else 0)
 
+class ChunkRunner:
+    """``runner(n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime)`` advances up to
+    ``n_steps`` steps and returns ``(steps_done, C, events)``: the compiled ``advance`` runs the
+    steps of one neighbour list; between its calls this rebuilds the list (one call per list
+    lifetime, so the Python overhead is per rebuild, not per step) and collects breakage
+    decisions. ``prime``: compute the forces of the start state before the first step."""
+
+    def __init__(self, advance, collect, slot_width, rolling, periodic, audit, implicit):
+        self.advance, self.collect = advance, collect
+        self.slot_width, self.rolling, self.periodic = slot_width, rolling, periodic
+        self.audit, self.implicit = audit, implicit
+
+    def __call__(self, n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
+        n = P.x.shape[0]
+        n_blocks = (n + BLOCK - 1) // BLOCK
+        n_walls = W.table.shape[0]
+        implicit = self.implicit
+        # per chunk: wall-load and audit partial sums, the stop flag (a breakage decision ends
+        # the chunk at its step) and the rebuild flag; implicit lubrication: the wall rows
+        # zeroed (rows of walls a particle never visits, body particles', stay inactive), the
+        # loads and velocities of the solve and its partial sums
+        shared = dict(
+            wall_part=np.zeros((n_blocks, max(n_walls, 1), 7)),
+            audit_part=np.zeros((n_blocks if self.audit else 0, N_AUDIT)),
+            stop=np.zeros(1, dtype=np.int64), rebuild=np.zeros(1, dtype=np.int64),
+            lub_rows=np.zeros((n if implicit else 0, n_walls, RW_WALL_WIDTH)),
+            lub_particle=np.zeros((n if implicit else 0, LP_WIDTH)),
+            cg_part=np.zeros((n_blocks if implicit else 0, 3)))
+        S = self._scratch(C, shared)
+        step = self.advance(n_steps, 0, True, bool(prime), t, dt, step0, P, C, W, B, R, A, S, bs,
+                            fp)
+        while True:
+            if S.stop[0] != 0:
+                events = self.collect(bs, events, A.n_events, S.out, SLOT_BASE, C.start, C.nbr,
+                                      P.inv_mass, step0 + step - 1)
+                break
+            if A.err[0] != 0 or step >= n_steps:
+                break
+            C = self._rebuilt(P, C, R)  # a particle moved more than half the skin
+            S.rebuild[0] = 0
+            S = self._scratch(C, shared)
+            A.counters[0] += 1
+            step = self.advance(n_steps, step, False, False, t, dt, step0, P, C, W, B, R, A, S,
+                                bs, fp)
+        A.counters[1] += step
+        return step, C, events
+
+    def _scratch(self, C, shared):
+        """Per-slot records (see Layout) and rolling torques for the slots of list C, with the
+        chunk's arrays (``shared``)."""
+        slots = C.nbr.shape[0]
+        implicit = self.implicit
+        return Scratch(out=np.empty((slots, self.slot_width)),
+                       proll=np.empty((slots if self.rolling else 0, 2, 3)),
+                       lub_slots=np.zeros((slots if implicit else 0, RW_WIDTH)),
+                       lub_partner=np.empty((slots if implicit else 0, 6)), **shared)
+
+    def _rebuilt(self, P, C, R):
+        if self.periodic:
+            wrap_periodic(P.x, P.body, R.box_lo, R.box_len)
+        lists = build_verlet(P.x, P.radius, P.body, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
+                             C.start, C.nbr, C.state)
+        P.x_ref[:] = P.x
+        return ContactList(*lists)
+
 
 def build_chunk_runner(spec, law, breakage=None, fluid=None):
     """Compile (or load from cache) the chunk runner.
@@ -113,7 +181,7 @@ def build_chunk_runner(spec, law, breakage=None, fluid=None):
            f"{fluid.name if fluid else ''}|{layout}")
     parts = _Parts(spec, law, breakage.kernels if breakage else NO_BREAKAGE,
                    fluid.kernels if fluid else NO_FLUID, layout, key)
-    return parts.run_chunk
+    return parts.runner
 
 
 class _Parts:
@@ -142,7 +210,7 @@ class _Parts:
         if layout.implicit:  # the implicit lubrication solve (engine.implicit); else not compiled
             self.lub_blocks = tuple(self._jit(fn) for fn in lub_kernels(spec, layout, BLOCK))
             self.lub_finish_block = self._jit(_lub_finish_kernel(spec, layout, finish))
-        self.run_chunk = self._runner(spec, brk, layout)
+        self.runner = self._runner(spec, brk, layout)
 
     def _inline(self, fn):
         return stable_identity(njit(inline="always", cache=True, fastmath=FAST)(fn),
@@ -159,61 +227,22 @@ class _Parts:
                                f"{self.key}|{fn.__name__}")
 
     def _parallel(self, fn):
-        return stable_identity(njit(parallel=True, cache=True, fastmath=FAST)(fn),
+        # Only the prange loops run in parallel: no numpy call or array expression becomes a
+        # parallel loop, and consecutive loops are not fused (each pass reads what the one before
+        # wrote for other blocks).
+        prange_only = dict(comprehension=False, reduction=False, inplace_binop=False,
+                           setitem=False, numpy=False, stencil=False, fusion=False)
+        return stable_identity(njit(parallel=prange_only, cache=True, fastmath=FAST)(fn),
                                f"{self.key}|{fn.__name__}")
 
     def _runner(self, spec, brk, layout):
         ROLLING, PERIODIC = spec.rolling_friction, spec.periodic
         SLOT, AUDIT, IMPLICIT = layout.slot_width, layout.audit, layout.implicit
-        collect = brk.collect
         pair_block, particle_block = self.pair_block, self.particle_block
         start_block, reductions = self.start_block, self.reductions
-
-        # The parallel passes: a block of particles per iteration. (Their bundles are arguments:
-        # numba's parallel lowering needs one definition of a named tuple it hands to the
-        # threads, and the contact list and scratch change at list rebuilds.)
-        # (The block index is cast: numba types a prange index int64 when it types the function
-        # and uint64 in the parallel kernel, and each type would compile the block kernel again.)
-        def start_pass(n_blocks, t_next, dt, P, B):
-            for blk in prange(n_blocks):
-                start_block(np.int64(blk), t_next, dt, P, B)
-
-        def pair_pass(n_blocks, step, dt, P, C, R, err, S, bs, fp):
-            for blk in prange(n_blocks):
-                pair_block(np.int64(blk), step, dt, P, C, R, err, S, bs, fp)
-
-        def particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
-            for blk in prange(n_blocks):
-                particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs, fp,
-                               half_skin2)
-
-        start_pass, pair_pass = self._parallel(start_pass), self._parallel(pair_pass)
-        particle_pass = self._parallel(particle_pass)
-        lub_solve = lub_finish_pass = None
+        lub_solve = lub_finish_block = None
         if IMPLICIT:
-            lub_solve, lub_finish_pass = self._lub_passes()
-
-        def rebuilt(P, C, R):
-            if PERIODIC:
-                wrap_periodic(P.x, P.body, R.box_lo, R.box_len)
-            start, nbr, state, rev_start, rev_slot = build_verlet(
-                P.x, P.radius, P.body, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
-                C.start, C.nbr, C.state)
-            # (A loop, not x_ref[:, :] = x: the slice copy compiles a shape-mismatch error path
-            # with string formatting, ~4 s of compile time for every variant.)
-            for i in range(P.x.shape[0]):
-                for a in range(3):
-                    P.x_ref[i, a] = P.x[i, a]
-            return ContactList(start, nbr, state, rev_start, rev_slot)
-
-        def slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle, cg_part):
-            """Per-slot records (see Layout) and rolling torques for the slots of list C, with the
-            chunk's partial sums, flags and implicit-lubrication arrays."""
-            slots = C.nbr.shape[0]
-            return Scratch(np.empty((slots, SLOT)), np.empty((slots if ROLLING else 0, 2, 3)),
-                           wall_part, audit_part, stop, rebuild,
-                           np.zeros((slots if IMPLICIT else 0, RW_WIDTH)), lub_rows,
-                           np.empty((slots if IMPLICIT else 0, 6)), lub_particle, cg_part)
+            lub_solve, lub_finish_block = self._lub_solver(), self.lub_finish_block
 
         def moved_beyond(x, x_ref, half_skin2):
             for i in range(x.shape[0]):
@@ -224,98 +253,103 @@ class _Parts:
                     return True
             return False
 
-        def run_chunk(n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
-            n = P.x.shape[0]
-            n_blocks = (n + BLOCK - 1) // BLOCK
+        moved_beyond = stable_identity(njit(cache=True)(moved_beyond), f"{self.key}|moved_beyond")
+
+        # The steps of one neighbour list's lifetime, with the parallel loops in this function.
+        # (Not inside one compiled chunk loop that also rebuilds the list: numba links every
+        # callee's code into its caller's and optimises it again at each level, so a level less
+        # is compile time less, docs/results/restructure.md; and parfor lowering needs one
+        # definition of each bundle it hands to the threads, which a rebuild redefines.)
+        # The block index is cast: numba types a prange index int64 when it types the function
+        # and uint64 in the parallel kernel, and each type would compile the block kernel again.
+        # No bundle is opened inside a prange body (numba 0.68 loses writes made through a named
+        # tuple's attribute there), so err and the scratch flags are taken out first.
+        def advance(n_steps, step, begin, prime, t, dt, step0, P, C, W, B, R, A, S, bs, fp):
+            """Steps from ``step`` until n_steps, a breakage decision, a guard, or a due list
+            rebuild (S.rebuild set); returns the steps done. ``begin``: the chunk's first call
+            (``prime``: evaluate the forces of the start state first)."""
+            n_blocks = (P.x.shape[0] + BLOCK - 1) // BLOCK
             half_skin2 = 0.25 * R.skin * R.skin
             err, counters = A.err, A.counters
-            rebuild = np.zeros(1, dtype=np.int64)
-            stop = np.zeros(1, dtype=np.int64)  # a breakage decision ends the chunk at this step
-            wall_part = np.zeros((n_blocks, max(W.table.shape[0], 1), 7))
-            audit_part = np.zeros((n_blocks if AUDIT else 0, N_AUDIT))
-            # implicit lubrication: wall rows zeroed (rows of walls a particle never visits, body
-            # particles', stay inactive), loads and velocities of the solve, its partial sums
-            lub_rows = np.zeros((n if IMPLICIT else 0, W.table.shape[0], RW_WALL_WIDTH))
-            lub_particle = np.zeros((n if IMPLICIT else 0, LP_WIDTH))
-            cg_part = np.zeros((n_blocks if IMPLICIT else 0, 3))
-            S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle,
-                             cg_part)
-            if prime:
-                # The forces of the start state (a run that starts in contact or inside a fluid
-                # film): the first drift uses them. dt = 0 evaluates without advancing springs.
-                pair_pass(n_blocks, step0, 0.0, P, C, R, err, S, bs, fp)
-                # (Run-time values, not literals: a literal argument compiles another variant.)
-                particle_pass(n_blocks, np.int64(0), prime, t, 0.0, P, C, W, B, R, err, S, bs, fp,
-                              half_skin2)
-                if IMPLICIT:
-                    # the first kick starts at the state: half a step of lubrication, so that the
-                    # first drift moves with the implicit half-step velocity (see lub_solve)
-                    lub_solve(n_blocks, 0.0, 0.5 * dt, False, P, C, R, S, fp, counters)
-                    lub_finish_pass(n_blocks, np.int64(0), prime, t, 0.0, 0.5 * dt, P, C, W, B, R,
-                                    err, S, half_skin2)
-                for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
-                    power = 0.0
-                    for blk in range(n_blocks):
-                        power += audit_part[blk, a]
-                        audit_part[blk, a] = 0.0
-                    A.dissipation[N_AUDIT + a] = power
-                wall_part[:, :, :] = 0.0
-            start_pass(n_blocks, t + dt, dt, P, B)  # start the first step, bodies at t + dt
-            if moved_beyond(P.x, P.x_ref, half_skin2):
-                # the last chunk ended on a step that asked for a list rebuild: do it now, before
-                # any pair is evaluated (a list older than half a skin of travel can miss pairs)
-                C = rebuilt(P, C, R)
-                S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows, lub_particle,
-                                 cg_part)
-                counters[0] += 1
-            steps_done = 0
+            stop, rebuild = S.stop, S.rebuild
+            wall_part, audit_part = S.wall_part, S.audit_part
+            if begin:
+                if prime:
+                    # The forces of the start state (a run that starts in contact or inside a
+                    # fluid film): the first drift uses them. dt = 0 evaluates without advancing
+                    # springs; the particle pass takes last = True (run-time values, not
+                    # literals: a literal argument compiles another variant).
+                    for blk in prange(n_blocks):
+                        pair_block(np.int64(blk), step0, 0.0, P, C, R, err, S, bs, fp)
+                    for blk in prange(n_blocks):
+                        particle_block(np.int64(blk), np.int64(0), prime, t, 0.0, P, C, W, B, R,
+                                       err, S, bs, fp, half_skin2)
+                    if IMPLICIT:
+                        # the first kick starts at the state: half a step of lubrication, so that
+                        # the first drift moves with the implicit half-step velocity (lub_solve)
+                        lub_solve(n_blocks, 0.0, 0.5 * dt, False, P, C, R, S, fp, counters)
+                        tau = 0.5 * dt
+                        for blk in prange(n_blocks):
+                            lub_finish_block(np.int64(blk), np.int64(0), prime, t, 0.0, tau, P, C,
+                                             W, B, R, err, S, half_skin2)
+                    for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
+                        power = 0.0
+                        for blk in range(n_blocks):
+                            power += audit_part[blk, a]
+                            audit_part[blk, a] = 0.0
+                        A.dissipation[N_AUDIT + a] = power
+                    for blk in range(wall_part.shape[0]):
+                        for k in range(wall_part.shape[1]):
+                            for c in range(wall_part.shape[2]):
+                                wall_part[blk, k, c] = 0.0
+                t_next = t + dt
+                for blk in prange(n_blocks):  # start the first step, bodies at t + dt
+                    start_block(np.int64(blk), t_next, dt, P, B)
+                if moved_beyond(P.x, P.x_ref, half_skin2):
+                    # the last chunk ended on a step that asked for a list rebuild: do it now,
+                    # before any pair is evaluated (a list older than half a skin of travel can
+                    # miss pairs)
+                    rebuild[0] = 1
+                    return step
             warm = False  # implicit lubrication: impulses of the last step kept in the rows
-            for step in range(n_steps):
-                pair_pass(n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
+            while step < n_steps:
+                step_now = step0 + step
+                for blk in prange(n_blocks):
+                    pair_block(np.int64(blk), step_now, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
-                particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp,
-                              half_skin2)
+                for blk in prange(n_blocks):
+                    particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs,
+                                   fp, half_skin2)
                 if IMPLICIT:
                     # the kick needs the lubrication impulses first; a breakage decision of the
                     # particle pass is known here, so that step ends without the drift
                     last = last or stop[0] != 0
                     lub_solve(n_blocks, 0.5 * dt, dt, warm, P, C, R, S, fp, counters)
                     warm = True
-                    lub_finish_pass(n_blocks, step, last, t, dt, dt, P, C, W, B, R, err, S,
-                                    half_skin2)
+                    for blk in prange(n_blocks):
+                        lub_finish_block(np.int64(blk), step, last, t, dt, dt, P, C, W, B, R, err,
+                                         S, half_skin2)
                 elif stop[0] != 0 and not last:
                     # A particle broke in the particle pass, after ``last`` was decided, so every
                     # particle has already started the next step: take that back, so that the
                     # chunk ends at the step boundary like any other, with positions and
                     # velocities at t + dt (else each breakage added an extra drift and handed
                     # the handler predicted velocities v + dt a: an energy error per event).
-                    start_pass(n_blocks, t + (step + 1) * dt, -dt, P, B)
+                    t_back = t + (step + 1) * dt
+                    for blk in prange(n_blocks):
+                        start_block(np.int64(blk), t_back, -dt, P, B)
                 reductions(t + (step + 1) * dt, dt, P, B, W, A.dissipation, wall_part, audit_part,
                            n_blocks)
-                if stop[0] != 0:
-                    events = collect(bs, events, A.n_events, S.out, SLOT_BASE, C.start, C.nbr,
-                                     P.inv_mass, step0 + step)
-                steps_done = step + 1
-                if err[0] != 0 or stop[0] != 0:
+                step += 1
+                if err[0] != 0 or stop[0] != 0 or (rebuild[0] != 0 and not last):
                     break
-                if rebuild[0] != 0 and not last:
-                    C = rebuilt(P, C, R)
-                    rebuild[0] = 0
-                    S = slot_scratch(C, wall_part, audit_part, stop, rebuild, lub_rows,
-                                     lub_particle, cg_part)
-                    warm = False  # new rows (zeros)
-                    counters[0] += 1
-            counters[1] += steps_done
-            return steps_done, C, events
+            return step
 
-        rebuilt = stable_identity(njit(cache=True)(rebuilt), f"{self.key}|rebuilt")
-        moved_beyond = stable_identity(njit(cache=True)(moved_beyond), f"{self.key}|moved_beyond")
-        slot_scratch = stable_identity(njit(cache=True)(slot_scratch), f"{self.key}|slot_scratch")
-        return stable_identity(njit(cache=True, fastmath=FAST)(run_chunk), f"{self.key}|run_chunk")
+        advance = self._parallel(advance)
+        return ChunkRunner(advance, brk.collect, SLOT, ROLLING, PERIODIC, AUDIT, IMPLICIT)
 
-
-    def _lub_passes(self):
-        """The implicit lubrication solve and the kick that applies it (engine.implicit).
+    def _lub_solver(self):
+        """The implicit lubrication solve (engine.implicit); ``advance``'s finish pass applies it.
 
         ``lub_solve(n_blocks, back, tau, warm, ...)``: the kick of length tau starts at
         v- = v - back acc: the half-step velocity (v holds the prediction v + dt a of the last
@@ -327,7 +361,6 @@ class _Parts:
         lower the objective below its value at 0, else from 0.
         """
         setup_particles, p1_own, p1_partner, setup_slots, restart, p3 = self.lub_blocks
-        finish_block = self.lub_finish_block
 
         # (One parallel loop per function: each pass reads what the one before wrote for other
         # blocks, so they must not be fused.)
@@ -355,11 +388,6 @@ class _Parts:
             for blk in prange(n_blocks):
                 p3(np.int64(blk), alpha, P, C, S)
 
-        def finish_pass(n_blocks, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
-            for blk in prange(n_blocks):
-                finish_block(np.int64(blk), step, last, t, dt, tau, P, C, W, B, R, err, S,
-                             half_skin2)
-
         setup_particle_pass = self._parallel(setup_particle_pass)
         setup_slot_pass = self._parallel(setup_slot_pass)
         restart_pass = self._parallel(restart_pass)
@@ -371,8 +399,6 @@ class _Parts:
             p1_partner)."""
             pass1_own(n_blocks, beta, a, P, C, S)
             pass1_partner(n_blocks, beta, a, P, C, S)
-
-        finish_pass = self._parallel(finish_pass)
 
         def block_sum(part, col):
             total = 0.0
@@ -411,7 +437,7 @@ class _Parts:
         block_sum = stable_identity(njit(cache=True)(block_sum), f"{self.key}|block_sum")
         pass1 = stable_identity(njit(cache=True)(pass1), f"{self.key}|pass1")
         lub_solve = stable_identity(njit(cache=True)(lub_solve), f"{self.key}|lub_solve")
-        return lub_solve, finish_pass
+        return lub_solve
 
 
 # ---- sub-kernels (factories: the spec's options become the closure's constants) ----------------
@@ -581,7 +607,7 @@ def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
     decide = brk.particle_decide
 
     def particle_block(blk, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
-        prime = dt == 0.0  # the start state's forces: nothing advances (see run_chunk)
+        prime = dt == 0.0  # the start state's forces: nothing advances (see advance)
         x, x_ref = P.x, P.x_ref
         stop, rebuild, lub = S.stop, S.rebuild, S.lub_particle
         for i in range(blk * BLOCK, min(x.shape[0], (blk + 1) * BLOCK)):
@@ -798,7 +824,7 @@ def _lub_finish_kernel(spec, layout, finish):
     WALLS, AUDIT = spec.walls, layout.audit
 
     def lub_finish_block(blk, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
-        prime = dt == 0.0  # the start state's loads: nothing advances (see run_chunk)
+        prime = dt == 0.0  # the start state's loads: nothing advances (see advance)
         x, x_ref, body = P.x, P.x_ref, P.body
         start, rev_start, rev_slot, out = C.start, C.rev_start, C.rev_slot, S.lub_slots
         lub, rows, wall_part, audit_part = S.lub_particle, S.lub_rows, S.wall_part, S.audit_part
