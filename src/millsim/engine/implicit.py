@@ -296,6 +296,14 @@ def lub_kernels(spec, layout, block):
     record has one writer and every partial sum one block: the result does not depend on the
     thread count.
     """
+    setup_particles, setup_slots = _setup_kernels(spec, block)
+    p1_own, p1_partner = _product_kernels(spec, block)
+    restart, p3 = _update_kernels(spec, block)
+    return setup_particles, p1_own, p1_partner, setup_slots, restart, p3
+
+
+def _setup_kernels(spec, block):
+    """The start of a solve: free velocities, wall rows, right-hand side and first residual."""
     GRAVITY, WALLS = spec.gravity, spec.walls
 
     def setup_particles(blk, back, tau, P, R, S):
@@ -336,6 +344,69 @@ def lub_kernels(spec, layout, block):
                                 o[RW_VJ + 2], o[RW_VJ + 3], o[RW_VJ + 4], o[RW_VJ + 5])
                     for k in range(NR):
                         o[RW_JM + k] = jm[k]
+
+    def setup_slots(blk, back, tau, warm, P, C, S):
+        """Start the solve at every row of the block (pairs it owns, its particles' walls):
+        b = J v_f, r = b - (C + W) lam (lam kept from the last step when ``warm``; u = M^-1 J^T lam
+        from p1), z; partials lam.(b + r), r.z and b.D^-1 b into cg_part[blk, 0:3]."""
+        v, w, acc, alpha, body = P.v, P.w, P.acc, P.alpha, P.body
+        start, nbr, rows, LP, WR = C.start, C.nbr, S.lub_slots, S.lub_particle, S.lub_rows
+        rho = bb = fch = 0.0
+        for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
+            for k in range(start[i], start[i + 1]):
+                o = rows[k]
+                if o[RW_ACT] == 0.0:
+                    continue
+                j = nbr[k]
+                row_setup(o, tau, P.inv_mass[i], P.inv_inertia[i], P.inv_mass[j],
+                          P.inv_inertia[j])
+                b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
+                           LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
+                           LP[j, LP_VF], LP[j, LP_VF + 1], LP[j, LP_VF + 2],
+                           LP[j, LP_VF + 3], LP[j, LP_VF + 4], LP[j, LP_VF + 5])
+                hi = 0.0 if body[i] >= 0 else back
+                hj = 0.0 if body[j] >= 0 else back
+                jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
+                            v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
+                            w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
+                            v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
+                            v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
+                            w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
+                for q in range(NR):
+                    o[RW_JM + q] = jm[q]
+                ju = pair_ju(o, LP, i, j)
+                r = row_begin(o, warm, b[0], b[1], b[2], b[3], b[4], b[5], b[6],
+                              ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
+                rho += r[0]
+                bb += r[1]
+                fch += r[2]
+            if WALLS and body[i] < 0:
+                for iw in range(WR.shape[1]):
+                    o = WR[i, iw]
+                    if o[RW_ACT] == 0.0:
+                        continue
+                    b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
+                               LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
+                               o[RW_VJ], o[RW_VJ + 1], o[RW_VJ + 2], o[RW_VJ + 3], o[RW_VJ + 4],
+                               o[RW_VJ + 5])
+                    ju = row_jv(o, LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2],
+                                LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5],
+                                0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                    r = row_begin(o, warm, b[0], b[1], b[2], b[3], b[4], b[5], b[6],
+                                  ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
+                    rho += r[0]
+                    bb += r[1]
+                    fch += r[2]
+        S.cg_part[blk, 0] = fch
+        S.cg_part[blk, 1] = rho
+        S.cg_part[blk, 2] = bb
+
+    return setup_particles, setup_slots
+
+
+def _product_kernels(spec, block):
+    """u = M^-1 J^T p in two halves (own rows, then partner shares and walls) and p.(C + W) p."""
+    WALLS = spec.walls
 
     def p1_own(blk, beta, a, P, C, S):
         """First half of u = M^-1 J^T p, for p = o[a:a+7] + beta (stored direction) of every row:
@@ -422,61 +493,12 @@ def lub_kernels(spec, layout, block):
             pq += F0 * u0 + F1 * u1 + F2 * u2 + T0 * s0 + T1 * s1 + T2 * s2
         S.cg_part[blk, 0] = pq
 
-    def setup_slots(blk, back, tau, warm, P, C, S):
-        """Start the solve at every row of the block (pairs it owns, its particles' walls):
-        b = J v_f, r = b - (C + W) lam (lam kept from the last step when ``warm``; u = M^-1 J^T lam
-        from p1), z; partials lam.(b + r), r.z and b.D^-1 b into cg_part[blk, 0:3]."""
-        v, w, acc, alpha, body = P.v, P.w, P.acc, P.alpha, P.body
-        start, nbr, rows, LP, WR = C.start, C.nbr, S.lub_slots, S.lub_particle, S.lub_rows
-        rho = bb = fch = 0.0
-        for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
-            for k in range(start[i], start[i + 1]):
-                o = rows[k]
-                if o[RW_ACT] == 0.0:
-                    continue
-                j = nbr[k]
-                row_setup(o, tau, P.inv_mass[i], P.inv_inertia[i], P.inv_mass[j],
-                          P.inv_inertia[j])
-                b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
-                           LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
-                           LP[j, LP_VF], LP[j, LP_VF + 1], LP[j, LP_VF + 2],
-                           LP[j, LP_VF + 3], LP[j, LP_VF + 4], LP[j, LP_VF + 5])
-                hi = 0.0 if body[i] >= 0 else back
-                hj = 0.0 if body[j] >= 0 else back
-                jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
-                            v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
-                            w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
-                            v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
-                            v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
-                            w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
-                for q in range(NR):
-                    o[RW_JM + q] = jm[q]
-                ju = pair_ju(o, LP, i, j)
-                r = row_begin(o, warm, b[0], b[1], b[2], b[3], b[4], b[5], b[6],
-                              ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
-                rho += r[0]
-                bb += r[1]
-                fch += r[2]
-            if WALLS and body[i] < 0:
-                for iw in range(WR.shape[1]):
-                    o = WR[i, iw]
-                    if o[RW_ACT] == 0.0:
-                        continue
-                    b = row_jv(o, LP[i, LP_VF], LP[i, LP_VF + 1], LP[i, LP_VF + 2],
-                               LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
-                               o[RW_VJ], o[RW_VJ + 1], o[RW_VJ + 2], o[RW_VJ + 3], o[RW_VJ + 4],
-                               o[RW_VJ + 5])
-                    ju = row_jv(o, LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2],
-                                LP[i, LP_U + 3], LP[i, LP_U + 4], LP[i, LP_U + 5],
-                                0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-                    r = row_begin(o, warm, b[0], b[1], b[2], b[3], b[4], b[5], b[6],
-                                  ju[0], ju[1], ju[2], ju[3], ju[4], ju[5], ju[6])
-                    rho += r[0]
-                    bb += r[1]
-                    fch += r[2]
-        S.cg_part[blk, 0] = fch
-        S.cg_part[blk, 1] = rho
-        S.cg_part[blk, 2] = bb
+    return p1_own, p1_partner
+
+
+def _update_kernels(spec, block):
+    """A CG update of the rows (p3) and the restart from zero impulses."""
+    WALLS = spec.walls
 
     def restart(blk, P, C, S):
         """Every row of the block back to lam = 0 (the kept impulses would not lower the
@@ -515,4 +537,4 @@ def lub_kernels(spec, layout, block):
                                            ju[6])
         S.cg_part[blk, 1] = rho
 
-    return setup_particles, p1_own, p1_partner, setup_slots, restart, p3
+    return restart, p3

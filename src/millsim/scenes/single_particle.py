@@ -409,7 +409,7 @@ class SingleParticleCase(Case):
         return (k - 1 + within) / self.impacts, f"impact {k}, {int((self.books.broken_at > 0).sum())} broken"
 
     def finish(self):
-        values, s, sim, books, replace = self.values, self.s, self.sim, self.books, self.replace
+        values, s, sim, books = self.values, self.s, self.sim, self.books
         n, mode, replacing = values["n_particles"], self.mode, self.replacing
         impacts, converged, per_impact = self.impacts, self.converged, self.per_impact
         absorbed_first, e_initial = self.absorbed_first, self.e_initial
@@ -517,60 +517,67 @@ class SingleParticleCase(Case):
                   "impact": ("impact", np.arange(1, len(converged) + 1), {"units": "1", "long_name": "impact number"}),
                   "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
         if replacing:
-            per, balance = _product(s, books, np.append(SIEVES, 0.1))
-            t10_each = np.where(broken, per[:, -1], np.nan)
-            per = per[:, :-1]
-            passing = per[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
-            kept, _ = _product(s, books, SIEVES, unbreakable="keep")
-            passing_kept = kept[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
-            recorded = np.isfinite(sim.breakage.t10_recorded) & (s.ids >= 0)
-            t10_pool = float(np.nanmean(t10_each)) if nb else math.nan
-            blo, bhi = bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
-            coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
-            data.update(
-                particle_product_t10=(
-                    "particle", t10_each,
-                    {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
-                particle_progeny=(
-                    "particle", np.bincount(s.ids[s.ids >= 0], minlength=n),
-                    {"units": "1", "long_name": "resolved spheres it ended as"}),
-                product_passing=(
-                    "sieve", passing,
-                    {"units": "%",
-                     "long_name": "cumulative % passing of the broken particles' product (fines "
-                                  "included, resolved-unbreakable spheres by eq 13)"}),
-                product_passing_spheres=(
-                    "sieve", passing_kept,
-                    {"units": "%",
-                     "long_name": "the same with resolved-unbreakable spheres kept at their size "
-                                  "(seed 002 Fig 13)"}),
-                unbreakable_records=(
-                    (), int(recorded.sum()),
-                    {"units": "1",
-                     "long_name": "resolved-unbreakable spheres that reached their fracture "
-                                  "energy (eq 13 applied)"}),
-                product_passing_model=(
-                    "sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
-                    {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
-                product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
-                product_t10_ci_lo=((), blo, {"units": "%", "long_name": "95% bootstrap lower"}),
-                product_t10_ci_hi=((), bhi, {"units": "%", "long_name": "95% bootstrap upper"}),
-                product_t10_model=(
-                    (), tv.t10_model(s.mat, d0, s.specific_energy, s.share),
-                    {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
-                product_t10_model_all=(
-                    (), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"),
-                    {"units": "%", "long_name": "eq 7, E50b = median of all"}),
-                fines_mass=((), replace.fines_mass, {"units": "kg", "long_name": "unresolved fines mass"}),
-                mass_balance_error=(
-                    (), balance,
-                    {"units": "1",
-                     "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
-            )
+            self._product_outputs(broken, data, coords)
         extra = {"case_seed": s.case_seed, "contact_time_s": s.t_contact, "gravity": "off",
                  "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"}
         return data, coords, extra
 
+
+    def _product_outputs(self, broken, data, coords):
+        """The progeny of the broken particles against the model: t10 and product passing (with
+        particle replacement only)."""
+        values, s, sim, books, replace = self.values, self.s, self.sim, self.books, self.replace
+        n, d0, nb = values["n_particles"], values["diameter"], int(broken.sum())
+        per, balance = _product(s, books, np.append(SIEVES, 0.1))
+        t10_each = np.where(broken, per[:, -1], np.nan)
+        per = per[:, :-1]
+        passing = per[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
+        kept, _ = _product(s, books, SIEVES, unbreakable="keep")
+        passing_kept = kept[broken].mean(0) if nb else np.full(len(SIEVES), np.nan)
+        recorded = np.isfinite(sim.breakage.t10_recorded) & (s.ids >= 0)
+        t10_pool = float(np.nanmean(t10_each)) if nb else math.nan
+        blo, bhi = bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
+        coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
+        data.update(
+            particle_product_t10=(
+                "particle", t10_each,
+                {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
+            particle_progeny=(
+                "particle", np.bincount(s.ids[s.ids >= 0], minlength=n),
+                {"units": "1", "long_name": "resolved spheres it ended as"}),
+            product_passing=(
+                "sieve", passing,
+                {"units": "%",
+                 "long_name": "cumulative % passing of the broken particles' product (fines "
+                              "included, resolved-unbreakable spheres by eq 13)"}),
+            product_passing_spheres=(
+                "sieve", passing_kept,
+                {"units": "%",
+                 "long_name": "the same with resolved-unbreakable spheres kept at their size "
+                              "(seed 002 Fig 13)"}),
+            unbreakable_records=(
+                (), int(recorded.sum()),
+                {"units": "1",
+                 "long_name": "resolved-unbreakable spheres that reached their fracture "
+                              "energy (eq 13 applied)"}),
+            product_passing_model=(
+                "sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
+                {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
+            product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
+            product_t10_ci_lo=((), blo, {"units": "%", "long_name": "95% bootstrap lower"}),
+            product_t10_ci_hi=((), bhi, {"units": "%", "long_name": "95% bootstrap upper"}),
+            product_t10_model=(
+                (), tv.t10_model(s.mat, d0, s.specific_energy, s.share),
+                {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
+            product_t10_model_all=(
+                (), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"),
+                {"units": "%", "long_name": "eq 7, E50b = median of all"}),
+            fines_mass=((), replace.fines_mass, {"units": "kg", "long_name": "unresolved fines mass"}),
+            mass_balance_error=(
+                (), balance,
+                {"units": "1",
+                 "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
+        )
 
 register(Scene("single_particle", "single-particle impact, drop-weight and repeated-impact tests of "
                "the Tavares model against its analytic predictions (seed 002 section 4.1)",
