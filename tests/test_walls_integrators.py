@@ -9,7 +9,9 @@
   normal (a turntable) circles at 2/7 of the table's rate; an annulus reflects like a plane on
   either face, about the line to the nearest rim point at its rims, lets a particle through its
   hole; a hopper cone reflects about its normal from either side, a bounded shell ends at its
-  rim; turning disks and cones drag like the rotating cylinders.
+  rim; turning disks and cones drag like the rotating cylinders. A translating plane hits a
+  resting particle as a static one is hit (Galilean invariance, to rounding) and carries one
+  riding on it at its speed, giving m g V.
 - The integrators inside the compiled loop on a damped linear oscillator (a particle pressed into a
   plane by a constant body force): observed order, the Verlet phase-error constant
   w^3 dt^2 t / 24, and step-by-step agreement with the textbook recurrences (velocity Verlet with
@@ -42,6 +44,8 @@ WALL_GEAR = (PhysicsSpec(dim=3, integrator="gear", walls=True), "linear_history"
 # frustum and annulus walls are compiled only into runs that declare them (one more kernel)
 WALL_BOUNDED = (PhysicsSpec(dim=3, walls=True, bounded_walls=True), "linear_history")
 BODY_HERTZ = (PhysicsSpec(dim=3, bodies=True), "hertz_mindlin")
+# translating walls likewise (one more kernel)
+WALL_TRANSLATING = (PhysicsSpec(dim=3, walls=True, translating_walls=True), "linear_history")
 
 R = 1e-3  # particle radius [m]
 RHO = 2500.0
@@ -468,6 +472,98 @@ def test_ball_on_a_turntable_circles_at_two_sevenths_of_its_rate(omega, point, n
     rate = np.polyfit(t, np.unwrap(angle), 1)[0]
     # elastic creep of the tangential spring and the step (t_c / 25) leave ~1e-4 (seen: 4e-5)
     assert rate == pytest.approx(2.0 * omega / 7.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("restitution", [0.3, 0.8])
+def test_moving_plane_strikes_a_resting_particle_as_a_static_plane_is_struck(restitution):
+    """Galilean invariance: a plane translating at V along its (oblique) normal that hits a
+    particle at rest gives, relative to the plane, the same motion as a static plane hit by the
+    particle at -V: final velocity V + the static rebound (about (1 + e) V) and the same position
+    relative to the plane, to rounding (a relative velocity without the wall's, or the wall placed
+    a step early or late, breaks it). The wall's work is V . (its force impulse on the particle)
+    and equals the momentum it gave times V."""
+    speed = 0.2
+    a = unit([0.3, -0.2, 1.0])
+    gap = 0.2 * R
+    point = -(R + gap) * a
+    dt = math.pi / W0 / 50.0
+    steps = int((gap / speed + 2.0 * math.pi / W0) / dt)  # reach, then two contact times
+    moving = make_sim(WALL_TRANSLATING, [[0.0, 0.0, 0.0]], restitution=restitution, walls=[dict(
+        kind="plane", point=point, normal=a, velocity=speed * a, material="m")],
+        impact_speed=2.0 * speed)
+    static = make_sim(WALL_VERLET, [[0.0, 0.0, 0.0]], v=[-speed * a], restitution=restitution,
+                      walls=[dict(kind="plane", point=point, normal=a, material="m")],
+                      impact_speed=2.0 * speed)
+    for sim in (moving, static):
+        sim.set_time_step(dt)
+        sim.run(steps)
+    v = moving.particles.v[0]
+    assert v - speed * a == pytest.approx(static.particles.v[0], abs=1e-12 * speed)
+    assert moving.particles.x[0] - moving.walls[0, 1:4] == pytest.approx(
+        static.particles.x[0] - static.walls[0, 1:4], abs=1e-9 * R)
+    # the rebound itself: e at this step (t_c / 50) within 1 % of the asked one
+    assert np.dot(v, a) == pytest.approx((1.0 + restitution) * speed, rel=1e-2)
+    received = -moving.impulse(wall=0)  # impulse the wall gave the particle
+    assert moving.work(wall=0) == pytest.approx(float(np.dot(received, speed * a)), rel=1e-12)
+    assert moving.work(wall=0) == pytest.approx(MASS * np.dot(v, a) * speed, rel=1e-9)
+
+
+def test_particle_rides_a_rising_plate_and_the_plate_gives_m_g_v():
+    """A particle resting on a plate that rises at V under gravity: once the contact has settled
+    the particle rises at V with the steady overlap m g / k, and the plate's power is m g V."""
+    speed = 0.05
+    g = 9.81
+    wall = dict(kind="plane", point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0),
+                velocity=(0.0, 0.0, speed), material="m")
+    sim = make_sim(WALL_TRANSLATING, [[0.0, 0.0, R]], walls=[wall], gravity=(0.0, 0.0, -g),
+                   impact_speed=2.0 * speed)
+    dt = math.pi / W0 / 50.0
+    sim.set_time_step(dt)
+    sim.run(int(60.0 * 2.0 * math.pi / W0 / dt))  # the damped transient (zeta ~ 0.2) dies out
+    w0, t0 = sim.work(wall=0), sim.time
+    steps = int(5.0 * 2.0 * math.pi / W0 / dt)
+    sim.run(steps)
+    assert sim.particles.v[0, 2] == pytest.approx(speed, rel=1e-9)
+    plate = speed * sim.time
+    assert sim.particles.x[0, 2] - plate == pytest.approx(R - MASS * g / K_N, rel=1e-9)
+    assert (sim.work(wall=0) - w0) / (sim.time - t0) == pytest.approx(MASS * g * speed, rel=1e-9)
+
+
+def test_translating_wall_goes_on_from_where_it_is_when_its_velocity_changes():
+    """set_wall(velocity=...) between chunks: the wall does not jump, it goes on from its point."""
+    wall = dict(kind="plane", point=(0.0, 0.0, -0.01), normal=(0.0, 0.0, 1.0),
+                velocity=(0.0, 0.0, 0.01), material="m")
+    sim = make_sim(WALL_TRANSLATING, [[0.0, 0.0, 0.0]], walls=[wall], impact_speed=0.1)
+    sim.run(100)
+    at = sim.walls[0, 1:4].copy()
+    assert at[2] == pytest.approx(-0.01 + 0.01 * sim.time, rel=1e-12)
+    sim.set_wall(0, velocity=(0.002, 0.0, 0.0))
+    t0 = sim.time
+    sim.run(100)
+    assert sim.walls[0, 1:4] == pytest.approx(at + np.array([0.002, 0.0, 0.0]) * (sim.time - t0),
+                                              rel=1e-12, abs=1e-15)
+
+
+@pytest.mark.parametrize("spec,wall,message", [
+    (PhysicsSpec(dim=3, walls=True), dict(velocity=(0.0, 0.0, 1.0)),
+     r"walls\[0\]\.velocity: translating walls need PhysicsSpec\(translating_walls=True\)"),
+    (PhysicsSpec(dim=3, walls=True, translating_walls=True), dict(velocity=(0.0, 1.0)),
+     r"walls\[0\]\.velocity: must be 3 finite numbers"),
+    (PhysicsSpec(dim=3, walls=True, translating_walls=True), dict(velocity=(0.0, math.nan, 0.0)),
+     r"walls\[0\]\.velocity: must be 3 finite numbers"),
+    (PhysicsSpec(dim=2, walls=True, translating_walls=True), dict(velocity=(0.0, 0.0, 1.0)),
+     r"walls\[0\]\.velocity: a 2D run's walls move in the xy plane"),
+])
+def test_translating_walls_refused_where_they_cannot_work(spec, wall, message):
+    mat = Material("m", RHO)
+    table = MaterialTable([mat], {"*": Interaction(restitution=0.5, normal_stiffness=K_N)},
+                          "linear_history")
+    with pytest.raises(ValueError, match=message):
+        Simulation(spec, table, x=[[0.0, 0.0, 0.002]], radius=[R], material="m",
+                   walls=[dict(kind="plane", normal=(0.0, 0.0, 1.0), material="m", **wall)],
+                   gravity=ZERO_G)
+    with pytest.raises(ValueError, match="translating_walls: needs walls=True"):
+        PhysicsSpec(translating_walls=True)
 
 
 # ---- 2. integrators in the compiled loop: damped linear oscillator ----------------------------

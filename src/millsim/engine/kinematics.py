@@ -2,7 +2,8 @@
 
 Walls are rows of a float table so that one compiled loop serves any mix of them:
 
-    [kind, px, py, pz, ax, ay, az, radius, omega, material, active, z0, r0, z1, r1]
+    [kind, px, py, pz, ax, ay, az, radius, omega, material, active, z0, r0, z1, r1,
+     vx, vy, vz, ox, oy, oz]
 
 - ``PLANE``: point p, unit normal a pointing into the domain; its surface turns at ``omega``
   rad/s about the normal through p (a drum's end wall turning with the shell; 0: static).
@@ -18,7 +19,9 @@ Walls are rows of a float table so that one compiled loop serves any mix of them
   sheet turns at ``omega`` about a (an agitator disk).
 
 ``active`` is 1, or 0 for a wall that has been taken away (e.g. the holder of a bed once the bed
-has settled).
+has settled). Any wall may also translate at the constant velocity v (a piston, a compression
+plate, a lifting gate): its point is o + v t, o its point at t = 0 (``place_walls``, compiled only
+with PhysicsSpec.translating_walls), and v adds to the velocity of its surface at a contact.
 
 Kinematic bodies are groups of particles whose positions follow a prescribed motion from their
 reference positions at t = 0, so there is no drift however long the run:
@@ -41,15 +44,24 @@ PLANE, CYLINDER_INNER, CYLINDER_OUTER, FRUSTUM = 0, 1, 2, 3
 # user-facing kinds; "annulus" and "cone" are frustums (Simulation._wall_table)
 WALL_KINDS = {"plane": PLANE, "cylinder_inner": CYLINDER_INNER, "cylinder_outer": CYLINDER_OUTER,
               "annulus": FRUSTUM, "frustum": FRUSTUM}
-WALL_COLUMNS = 15
+WALL_COLUMNS = 21
 # named columns of a wall row
 W_KIND, W_POINT, W_AXIS, W_RADIUS, W_OMEGA, W_MATERIAL, W_ACTIVE = 0, slice(1, 4), slice(4, 7), 7, 8, 9, 10
 W_SEGMENT = slice(11, 15)  # frustum: z0, r0, z1, r1
+W_VELOCITY, W_ORIGIN = slice(15, 18), slice(18, 21)  # translation: point = origin + velocity t
 
 ROTATE, TRANSLATE = 0, 1
 BODY_KINDS = {"rotate": ROTATE, "translate": TRANSLATE}
 BODY_COLUMNS = 9
 B_KIND, B_CENTER, B_AXIS, B_RATE, B_RAMP = 0, slice(1, 4), slice(4, 7), 7, 8
+
+
+@njit(cache=True)
+def place_walls(table, time):
+    """Every wall's point at ``time``: origin + velocity time (translating walls)."""
+    for iw in range(table.shape[0]):
+        for a in range(3):
+            table[iw, 1 + a] = table[iw, 18 + a] + table[iw, 15 + a] * time
 
 
 @njit(inline="always", cache=True)

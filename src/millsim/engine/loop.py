@@ -45,7 +45,14 @@ from .implicit import (
     row_power,
 )
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
-from .kinematics import ROTATE, body_motion, body_pose, wall_contact, wall_contact_bounded
+from .kinematics import (
+    ROTATE,
+    body_motion,
+    body_pose,
+    place_walls,
+    wall_contact,
+    wall_contact_bounded,
+)
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
 from .neighbours import build_verlet, min_image, wrap_periodic
 from .state import ContactList, Scratch
@@ -236,7 +243,7 @@ class _Parts:
                                f"{self.key}|{fn.__name__}")
 
     def _runner(self, spec, brk, layout):
-        ROLLING, PERIODIC = spec.rolling_friction, spec.periodic
+        ROLLING, PERIODIC, TRANSLATING = spec.rolling_friction, spec.periodic, spec.translating_walls
         SLOT, AUDIT, IMPLICIT = layout.slot_width, layout.audit, layout.implicit
         pair_block, particle_block = self.pair_block, self.particle_block
         start_block, reductions = self.start_block, self.reductions
@@ -281,6 +288,8 @@ class _Parts:
                     # literals: a literal argument compiles another variant).
                     for blk in prange(n_blocks):
                         pair_block(np.int64(blk), step0, 0.0, P, C, R, err, S, bs, fp)
+                    if TRANSLATING:
+                        place_walls(W.table, t)
                     for blk in prange(n_blocks):
                         particle_block(np.int64(blk), np.int64(0), prime, t, 0.0, P, C, W, B, R,
                                        err, S, bs, fp, half_skin2)
@@ -317,6 +326,8 @@ class _Parts:
                 for blk in prange(n_blocks):
                     pair_block(np.int64(blk), step_now, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
+                if TRANSLATING:  # the walls where the step's forces are evaluated
+                    place_walls(W.table, t + (step + 1) * dt)
                 for blk in prange(n_blocks):
                     particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs,
                                    fp, half_skin2)
@@ -710,6 +721,7 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
     wall_rows = flu.wall_rows
     wall_apart = brk.wall_apart
     contact_with = wall_contact_bounded if spec.bounded_walls else wall_contact
+    TRANSLATING = spec.translating_walls
 
     def walls(i, step, dt, P, W, R, err, S, blk, bs, fp, F0, F1, F2, T0, T1, T2, FS, acc):
         x, v, w = P.x, P.v, P.w
@@ -722,6 +734,10 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
                     row_absent(S.lub_rows[i, iw])
                 continue
             xi, n0, n1, n2, u0, u1, u2 = contact_with(wall, x[i, 0], x[i, 1], x[i, 2], ri)
+            if TRANSLATING:  # the surface's velocity: turning (above) plus translation
+                u0 += wall[15]
+                u1 += wall[16]
+                u2 += wall[17]
             if IMPLICIT:  # the row for the solve (applied in _lub_finish_kernel)
                 wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, S.lub_rows[i, iw])
                 fluid, g0, g1, g2, c0, c1, c2, Dn, Dt, cp0, cp1, cp2, pw = (

@@ -32,9 +32,11 @@ from .kinematics import (
     W_KIND,
     W_MATERIAL,
     W_OMEGA,
+    W_ORIGIN,
     W_POINT,
     W_RADIUS,
     W_SEGMENT,
+    W_VELOCITY,
     WALL_COLUMNS,
     WALL_KINDS,
     wall_contact_bounded,
@@ -168,7 +170,8 @@ class Simulation:
             rad/s about the axis, or for a plane about its normal through ``point``; an
             ``annulus`` takes ``radius`` and ``inner_radius`` (0: a disk), a ``frustum``
             (truncated cone, bounded cylinder shell) ``start`` and ``end``: [height along the
-            axis from ``point``, radius] [m]).
+            axis from ``point``, radius] [m]; any kind may take ``velocity``: a constant
+            translation [m/s] from ``point`` at t = 0, with PhysicsSpec.translating_walls).
         bodies: list of dicts ``{kind: rotate|translate, center, axis, rate, ramp}`` (``ramp``:
             seconds from rest to ``rate`` at constant acceleration; 0 or absent: at ``rate`` from
             the start).
@@ -216,6 +219,9 @@ class Simulation:
         self.guards = Guards(guards.max_overlap, float(guards.v_max) if guards.v_max is not None
                              else max(100.0, 10.0 * step.impact_speed))
         self.breakage, self.fluid = breakage, fluid
+        if fluid is not None and spec.translating_walls:
+            raise ValueError("translating_walls: not with a fluid (the wall lubrication knows "
+                             "only a wall's turning)")
         self.layout = Layout(self.law.spring_columns,
                              len(breakage.contact_columns) if breakage else 0,
                              len(breakage.wall_columns) if breakage else 0,
@@ -352,9 +358,23 @@ class Simulation:
                                  "out of the plane of a 2D run; give 0")
             table[k, W_MATERIAL] = self.material_index(wall["material"])
             table[k, W_ACTIVE] = 1.0
+            table[k, W_VELOCITY] = self._wall_velocity(key, wall.get("velocity", (0.0, 0.0, 0.0)))
+            table[k, W_ORIGIN] = table[k, W_POINT]
         if len(walls) and not self.spec.walls:
             raise ValueError("walls: given but spec.walls is false")
         return table
+
+    def _wall_velocity(self, key, velocity):
+        velocity = np.asarray(velocity, dtype=float)
+        if velocity.shape != (3,) or not np.isfinite(velocity).all():
+            raise ValueError(f"{key}.velocity: must be 3 finite numbers [m/s], got "
+                             f"{velocity.tolist()}")
+        if velocity.any() and not self.spec.translating_walls:
+            raise ValueError(f"{key}.velocity: translating walls need "
+                             "PhysicsSpec(translating_walls=True)")
+        if self.spec.dim == 2 and velocity[2] != 0.0:
+            raise ValueError(f"{key}.velocity: a 2D run's walls move in the xy plane; give vz = 0")
+        return velocity
 
     def _frustum_segment(self, key, kind, wall):
         """(z0, r0, z1, r1) of a frustum wall; an annulus is the flat ring from inner_radius to
@@ -564,6 +584,7 @@ class Simulation:
             for k in np.flatnonzero((w[:, W_KIND] == PLANE) & (w[:, W_OMEGA] != 0.0)):
                 arm = np.cross(w[k, W_AXIS], p.x[self.free] - w[k, W_POINT])
                 surface[k] = abs(w[k, W_OMEGA]) * np.sqrt((arm**2).sum(1)).max(initial=0.0)
+            surface += np.sqrt((w[:, W_VELOCITY] ** 2).sum(1))  # translating walls
             speed += float(surface.max())
         if len(self.bodies):
             speed += float(np.sqrt((p.v[~self.free] ** 2).sum(1)).max(initial=0.0))
@@ -616,11 +637,16 @@ class Simulation:
         return self.breakage.records(rows) if self.breakage else []
 
     # ---- named access to walls, bodies and what they received --------------------------------
-    def set_wall(self, index, *, point=None, axis=None, radius=None, omega=None):
-        """Move or change wall ``index`` between chunks (its kind and material stay)."""
+    def set_wall(self, index, *, point=None, axis=None, radius=None, omega=None, velocity=None):
+        """Move or change wall ``index`` between chunks (its kind and material stay); a
+        translating wall goes on from ``point`` at ``velocity`` from now."""
         row = self.walls[index]
+        if velocity is not None:
+            row[W_VELOCITY] = self._wall_velocity(f"walls[{index}]", velocity)
         if point is not None:
             row[W_POINT] = np.asarray(point, dtype=float)
+        if point is not None or velocity is not None:
+            row[W_ORIGIN] = row[W_POINT] - row[W_VELOCITY] * self.time
         if axis is not None:
             row[W_AXIS] = _unit(axis, f"walls[{index}].axis")
         if radius is not None:

@@ -29,6 +29,7 @@ class PhysicsSpec:
             asked restitution (``models.materials``).
         gravity, walls, bodies, periodic: whether those terms exist at all.
         bounded_walls: frustum and annulus walls (engine.kinematics) compiled in (needs walls).
+        translating_walls: walls that translate at a constant velocity compiled in (needs walls).
         normal_force_sum: keep each particle's sum of contact normal forces (pressure maps,
             force chains).
         energy_audit: integrate the power dissipated by contact damping, by the tangential force
@@ -42,6 +43,7 @@ class PhysicsSpec:
     gravity: bool = True
     walls: bool = False
     bounded_walls: bool = False
+    translating_walls: bool = False
     bodies: bool = False
     periodic: bool = False
     normal_force_sum: bool = False
@@ -56,6 +58,8 @@ class PhysicsSpec:
             raise ValueError(f"convention: must be one of {CONVENTIONS}, got {self.convention!r}")
         if self.bounded_walls and not self.walls:
             raise ValueError("bounded_walls: needs walls=True")
+        if self.translating_walls and not self.walls:
+            raise ValueError("translating_walls: needs walls=True")
 
     @property
     def clip_normal(self):
