@@ -659,6 +659,12 @@ class Simulation:
         self.walls[index, W_ACTIVE] = 0.0
         self.wall_hist[:, index, :] = 0.0
 
+    def enable_wall(self, index):
+        """Put wall ``index`` (back) in place, with no contact history (e.g. a silo's bottom once
+        its gate is taken away)."""
+        self.walls[index, W_ACTIVE] = 1.0
+        self.wall_hist[:, index, :] = 0.0
+
     def impulse(self, *, wall=None, body=None):
         """Force impulse [N s] a wall or body has received from the particles since the start."""
         return self._loads(wall, body).impulse[wall if body is None else body, 0:3].copy()

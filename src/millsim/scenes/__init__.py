@@ -3,7 +3,7 @@
 from importlib import import_module
 
 SCENE_MODULES = ("collision", "packing", "ballmill2d", "stirred_mill", "bed_impact",
-                 "single_particle")
+                 "single_particle", "silo")
 
 
 def load_all():
