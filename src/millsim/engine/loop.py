@@ -54,8 +54,8 @@ from .kinematics import (
     wall_contact_bounded,
 )
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
-from .neighbours import build_verlet, min_image, wrap_periodic
-from .state import ContactList, Scratch
+from .neighbours import min_image, rebuilt_contacts
+from .state import Scratch
 
 # Fast-math without the no-NaN/no-inf assumptions, so that the engine's NaN guard still sees NaN.
 # A dict, not a set: numba keys the disk cache of a closure by its pickled cells, and a set of
@@ -143,7 +143,9 @@ class ChunkRunner:
                 break
             if A.err[0] != 0 or step >= n_steps:
                 break
-            C = self._rebuilt(P, C, R)  # a particle moved more than half the skin
+            # a particle moved more than half the skin
+            C = rebuilt_contacts(P, C, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
+                                 self.periodic)
             S.rebuild[0] = 0
             S = self._scratch(C, shared)
             A.counters[0] += 1
@@ -162,13 +164,6 @@ class ChunkRunner:
                        lub_slots=np.zeros((slots if implicit else 0, RW_WIDTH)),
                        lub_partner=np.empty((slots if implicit else 0, 6)), **shared)
 
-    def _rebuilt(self, P, C, R):
-        if self.periodic:
-            wrap_periodic(P.x, P.body, R.box_lo, R.box_len)
-        lists = build_verlet(P.x, P.radius, P.body, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
-                             C.start, C.nbr, C.state)
-        P.x_ref[:] = P.x
-        return ContactList(*lists)
 
 
 def build_chunk_runner(spec, law, breakage=None, fluid=None):

@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .state import ContactList
+
 
 @njit(cache=True)
 def wrap_periodic(x, body, box_lo, box_len):
@@ -278,6 +280,17 @@ def build_verlet(x, radius, body, skin, dim, box_lo, box_len, old_start, old_j, 
             rev_slot[fill[j]] = k
             fill[j] += 1
     return start, nbr, state, rev_start, rev_slot
+
+
+def rebuilt_contacts(p, old, reach, dim, box_lo, box_len, periodic):
+    """The contact list of particles ``p`` (ParticleArrays) rebuilt from ``old`` (state carried
+    over), periodic images wrapped first; the positions become the list's reference."""
+    if periodic:
+        wrap_periodic(p.x, p.body, box_lo, box_len)
+    lists = build_verlet(p.x, p.radius, p.body, reach, dim, box_lo, box_len, old.start, old.nbr,
+                         old.state)
+    p.x_ref[:] = p.x
+    return ContactList(*lists)
 
 
 def brute_force_pairs(x, radius, body, skin, box_len):

@@ -42,7 +42,7 @@ from .kinematics import (
     wall_contact_bounded,
 )
 from .loop import AUDIT_TERMS, ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED, N_AUDIT, Layout
-from .neighbours import build_verlet, wrap_periodic
+from .neighbours import rebuilt_contacts
 from .spec import PhysicsSpec, chunk_runner
 from .state import (
     Accumulators,
@@ -450,13 +450,9 @@ class Simulation:
             setattr(model, name, array)
 
     def _rebuild_contacts(self, old):
-        p = self.particles
-        if self.spec.periodic:
-            wrap_periodic(p.x, p.body, self.box_lo, self.box_len)
-        self.contacts = ContactList(*build_verlet(p.x, p.radius, p.body, self.skin + self.reach,
-                                                  self.spec.dim, self.box_lo, self.box_len,
-                                                  old.start, old.nbr, old.state))
-        p.x_ref[:] = p.x
+        self.contacts = rebuilt_contacts(self.particles, old, self.skin + self.reach,
+                                         self.spec.dim, self.box_lo, self.box_len,
+                                         self.spec.periodic)
 
     # ---- time step ----------------------------------------------------------------------------
     def _time_step_report(self):
