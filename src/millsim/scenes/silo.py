@@ -30,16 +30,16 @@ G = 9.81
 GATE, BOTTOM, SHELL = 0, 1, 2  # wall indices
 
 PARAMS = (
-    Param("n", 1500, "spheres poured", "1", 2),
+    Param("n", 3000, "spheres poured", "1", 2),
     *SOLID_PARAMS,
-    Param("silo_radius", 0.015, "inner radius of the silo", "m", 0.0, lo_open=True),
+    Param("silo_radius", 0.018, "inner radius of the silo", "m", 0.0, lo_open=True),
     Param("orifice_diameter", 0.010, "diameter of the central orifice in the flat bottom", "m",
           0.0, lo_open=True),
-    Param("pour_height", 0.06, "top of the pouring region above the bottom", "m", 0.0,
+    Param("pour_height", 0.09, "top of the pouring region above the bottom", "m", 0.0,
           lo_open=True),
-    Param("pour_time", 0.05, "time over which the n spheres are poured", "s", 0.0, lo_open=True),
-    Param("settle_time", 0.25, "time left to settle after the last sphere is in", "s", 0.0),
-    Param("discharge_time", 0.6, "longest discharge simulated after the gate opens", "s", 0.0,
+    Param("pour_time", 0.1, "time over which the n spheres are poured", "s", 0.0, lo_open=True),
+    Param("settle_time", 0.3, "time left to settle after the last sphere is in", "s", 0.0),
+    Param("discharge_time", 0.8, "longest discharge simulated after the gate opens", "s", 0.0,
           lo_open=True),
     Param("record_interval", 0.005, "discharged mass recorded every", "s", 0.0, lo_open=True),
     *TIME_STEP_PARAMS,
