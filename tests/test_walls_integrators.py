@@ -562,6 +562,9 @@ def test_translating_walls_refused_where_they_cannot_work(spec, wall, message):
         Simulation(spec, table, x=[[0.0, 0.0, 0.002]], radius=[R], material="m",
                    walls=[dict(kind="plane", normal=(0.0, 0.0, 1.0), material="m", **wall)],
                    gravity=ZERO_G)
+
+
+def test_translating_walls_need_walls():
     with pytest.raises(ValueError, match="translating_walls: needs walls=True"):
         PhysicsSpec(translating_walls=True)
 

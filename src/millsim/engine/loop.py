@@ -112,10 +112,10 @@ class ChunkRunner:
     lifetime, so the Python overhead is per rebuild, not per step) and collects breakage
     decisions. ``prime``: compute the forces of the start state before the first step."""
 
-    def __init__(self, advance, collect, slot_width, rolling, periodic, audit, implicit):
+    def __init__(self, advance, collect, layout, rolling, periodic):
         self.advance, self.collect = advance, collect
-        self.slot_width, self.rolling, self.periodic = slot_width, rolling, periodic
-        self.audit, self.implicit = audit, implicit
+        self.slot_width, self.audit, self.implicit = layout.slot_width, layout.audit, layout.implicit
+        self.rolling, self.periodic = rolling, periodic
 
     def __call__(self, n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
         n = P.x.shape[0]
@@ -239,7 +239,7 @@ class _Parts:
 
     def _runner(self, spec, brk, layout):
         ROLLING, PERIODIC, TRANSLATING = spec.rolling_friction, spec.periodic, spec.translating_walls
-        SLOT, AUDIT, IMPLICIT = layout.slot_width, layout.audit, layout.implicit
+        AUDIT, IMPLICIT = layout.audit, layout.implicit
         pair_block, particle_block = self.pair_block, self.particle_block
         start_block, reductions = self.start_block, self.reductions
         lub_solve = lub_finish_block = None
@@ -352,7 +352,7 @@ class _Parts:
             return step
 
         advance = self._parallel(advance)
-        return ChunkRunner(advance, brk.collect, SLOT, ROLLING, PERIODIC, AUDIT, IMPLICIT)
+        return ChunkRunner(advance, brk.collect, layout, ROLLING, PERIODIC)
 
     def _lub_solver(self):
         """The implicit lubrication solve (engine.implicit); ``advance``'s finish pass applies it.
