@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..util.validation import check_range
-from .kinematics import W_ACTIVE, wall_contact_bounded
+from .kinematics import MESH, W_ACTIVE, W_KIND, wall_contact_bounded
 
 
 @dataclass
@@ -116,7 +116,8 @@ class Pour:
         p = sim.particles
         reach = 2.0 * self._largest_radius(p) + self.gap
         near = np.all((p.x > self.lo - reach) & (p.x < self.hi + reach), axis=1)
-        walls = [w for w in sim.walls if w[W_ACTIVE] != 0.0]
+        # (mesh walls are not checked: the region must be clear of them, docs/walls.md)
+        walls = [w for w in sim.walls if w[W_ACTIVE] != 0.0 and w[W_KIND] != MESH]
         new_x, new_r = self._place(want, p.x[near], p.radius[near], walls)
         self.backlog = want - len(new_r)
         if not len(new_r):

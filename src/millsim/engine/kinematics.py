@@ -18,6 +18,10 @@ Walls are rows of a float table so that one compiled loop serves any mix of them
   is the nearest point of the segment. ``radius`` holds max(r0, r1) (its fastest point); the
   sheet turns at ``omega`` about a (an agitator disk).
 
+- ``MESH``: a rigid triangulated solid (engine.mesh): p is its frame's origin, turning at
+  ``omega`` about the axis through p along a; ``radius`` holds the farthest vertex from the axis
+  (its fastest point).
+
 ``active`` is 1, or 0 for a wall that has been taken away (e.g. the holder of a bed once the bed
 has settled). Any wall may also translate at the constant velocity v (a piston, a compression
 plate, a lifting gate): its point is o + v t, o its point at t = 0 (``place_walls``, compiled only
@@ -40,14 +44,16 @@ import math
 
 from numba import njit
 
-PLANE, CYLINDER_INNER, CYLINDER_OUTER, FRUSTUM = 0, 1, 2, 3
+PLANE, CYLINDER_INNER, CYLINDER_OUTER, FRUSTUM, MESH = 0, 1, 2, 3, 4
 # user-facing kinds; "annulus" and "cone" are frustums (Simulation._wall_table)
 WALL_KINDS = {"plane": PLANE, "cylinder_inner": CYLINDER_INNER, "cylinder_outer": CYLINDER_OUTER,
-              "annulus": FRUSTUM, "frustum": FRUSTUM}
+              "annulus": FRUSTUM, "frustum": FRUSTUM, "mesh": MESH}
 WALL_COLUMNS = 21
 # named columns of a wall row
 W_KIND, W_POINT, W_AXIS, W_RADIUS, W_OMEGA, W_MATERIAL, W_ACTIVE = 0, slice(1, 4), slice(4, 7), 7, 8, 9, 10
 W_SEGMENT = slice(11, 15)  # frustum: z0, r0, z1, r1
+# mesh: cos and sin of its angle now, the angle and time of the last change of omega
+W_COS, W_SIN, W_ANGLE_REF, W_TIME_REF = 11, 12, 13, 14
 W_VELOCITY, W_ORIGIN = slice(15, 18), slice(18, 21)  # translation: point = origin + velocity t
 
 ROTATE, TRANSLATE = 0, 1
@@ -62,6 +68,18 @@ def place_walls(table, time):
     for iw in range(table.shape[0]):
         for a in range(3):
             table[iw, 1 + a] = table[iw, 18 + a] + table[iw, 15 + a] * time
+
+
+@njit(cache=True)
+def place_meshes(table, time):
+    """Every mesh's point and angle at ``time`` (the loop's contacts read cos and sin)."""
+    for iw in range(table.shape[0]):
+        if int(table[iw, 0]) == MESH:
+            th = table[iw, 13] + table[iw, 8] * (time - table[iw, 14])
+            table[iw, 11] = math.cos(th)
+            table[iw, 12] = math.sin(th)
+            for a in range(3):
+                table[iw, 1 + a] = table[iw, 18 + a] + table[iw, 15 + a] * time
 
 
 @njit(inline="always", cache=True)

@@ -46,12 +46,24 @@ from .implicit import (
 )
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from .kinematics import (
+    MESH,
     ROTATE,
     body_motion,
     body_pose,
+    place_meshes,
     place_walls,
     wall_contact,
     wall_contact_bounded,
+)
+from .mesh import (
+    FACE,
+    MESH_SLOTS,
+    SAME_CONTACT_COS,
+    counted,
+    mesh_travel,
+    rotate,
+    triangle_contact,
+    with_mesh_candidates,
 )
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
 from .neighbours import min_image, rebuilt_contacts
@@ -70,7 +82,8 @@ AUDIT_TERMS = ("contact_normal_damping", "contact_tangential_translation",
                "contact_tangential_rotation", "lubrication_normal", "lubrication_tangential")
 # Guard codes written to err[0]; err = [code, step, particle, partner]. With threads the particle
 # recorded is whichever got there first; the Python side names a deterministic one.
-ERR_OVERLAP, ERR_NONFINITE, ERR_SPEED = 1, 2, 3
+# ERR_MESH_SLOTS: a particle touches more mesh triangles at once than it has history slots.
+ERR_OVERLAP, ERR_NONFINITE, ERR_SPEED, ERR_MESH_SLOTS = 1, 2, 3, 4
 
 
 @dataclass(frozen=True)
@@ -107,7 +120,7 @@ class Layout:
 
 class ChunkRunner:
     """``runner(n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime)`` advances up to
-    ``n_steps`` steps and returns ``(steps_done, C, events)``: the compiled ``advance`` runs the
+    ``n_steps`` steps and returns ``(steps_done, C, W, events)``: the compiled ``advance`` runs the
     steps of one neighbour list; between its calls this rebuilds the list (one call per list
     lifetime, so the Python overhead is per rebuild, not per step) and collects breakage
     decisions. ``prime``: compute the forces of the start state before the first step."""
@@ -146,13 +159,15 @@ class ChunkRunner:
             # a particle moved more than half the skin
             C = rebuilt_contacts(P, C, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
                                  self.periodic)
+            if W.tri.shape[0]:
+                W = with_mesh_candidates(W, P, R.skin, t + step * dt)
             S.rebuild[0] = 0
             S = self._scratch(C, shared)
             A.counters[0] += 1
             step = self.advance(n_steps, step, False, False, t, dt, step0, P, C, W, B, R, A, S,
                                 bs, fp)
         A.counters[1] += step
-        return step, C, events
+        return step, C, W, events
 
     def _scratch(self, C, shared):
         """Per-slot records (see Layout) and rolling torques for the slots of list C, with the
@@ -199,13 +214,15 @@ class _Parts:
     def __init__(self, spec, law, brk, flu, layout, key):
         self.key = key
         contact = self._inline(_contact_kernel(spec, law))
+        wall_force = self._inline(_wall_force_kernel(spec, layout, contact))
+        meshes = self._inline(_mesh_kernel(spec, layout, wall_force)) if spec.mesh_walls else None
         finish = self._inline(_finish_kernel(spec))
         self.pair_block = self._jit(_pair_block_kernel(
             self._inline(_pair_row_kernel(spec, law, brk, flu, layout, contact))))
         self.particle_block = self._jit(_particle_block_kernel(
             spec, brk, layout,
             gather=self._inline(_gather_kernel(spec, brk, layout)),
-            walls=self._inline(_walls_kernel(spec, law, brk, flu, layout, contact)),
+            walls=self._inline(_walls_kernel(spec, law, brk, flu, layout, wall_force, meshes)),
             finish=finish))
         self.start_block = self._jit(_start_block_kernel(spec))
         self.reductions = self._jit(_reduction_kernel(spec, layout))
@@ -239,6 +256,7 @@ class _Parts:
 
     def _runner(self, spec, brk, layout):
         ROLLING, PERIODIC, TRANSLATING = spec.rolling_friction, spec.periodic, spec.translating_walls
+        MESHES = spec.mesh_walls
         AUDIT, IMPLICIT = layout.audit, layout.implicit
         pair_block, particle_block = self.pair_block, self.particle_block
         start_block, reductions = self.start_block, self.reductions
@@ -285,6 +303,8 @@ class _Parts:
                         pair_block(np.int64(blk), step0, 0.0, P, C, R, err, S, bs, fp)
                     if TRANSLATING:
                         place_walls(W.table, t)
+                    if MESHES:
+                        place_meshes(W.table, t)
                     for blk in prange(n_blocks):
                         particle_block(np.int64(blk), np.int64(0), prime, t, 0.0, P, C, W, B, R,
                                        err, S, bs, fp, half_skin2)
@@ -309,7 +329,8 @@ class _Parts:
                 t_next = t + dt
                 for blk in prange(n_blocks):  # start the first step, bodies at t + dt
                     start_block(np.int64(blk), t_next, dt, P, B)
-                if moved_beyond(P.x, P.x_ref, half_skin2):
+                if moved_beyond(P.x, P.x_ref, half_skin2) or (
+                        MESHES and mesh_travel(W, t) > 0.5 * R.skin):
                     # the last chunk ended on a step that asked for a list rebuild: do it now,
                     # before any pair is evaluated (a list older than half a skin of travel can
                     # miss pairs)
@@ -323,6 +344,10 @@ class _Parts:
                 last = step == n_steps - 1 or stop[0] != 0
                 if TRANSLATING:  # the walls where the step's forces are evaluated
                     place_walls(W.table, t + (step + 1) * dt)
+                if MESHES:
+                    place_meshes(W.table, t + (step + 1) * dt)
+                    if mesh_travel(W, t + (step + 1) * dt) > 0.5 * R.skin:
+                        rebuild[0] = 1  # the mesh's triangles near each particle are due
                 for blk in prange(n_blocks):
                     particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs,
                                    fp, half_skin2)
@@ -706,17 +731,75 @@ def _gather_kernel(spec, brk, layout):
     return gather
 
 
-def _walls_kernel(spec, law, brk, flu, layout, contact):
+def _wall_force_kernel(spec, layout, contact):
+    """One dry contact of free particle i with a wall's surface (analytic or a mesh triangle):
+    overlap xi (xw of it counts), unit normal n wall -> particle, the surface's velocity u; the
+    force on i, the torque about its centre and the lever arm ai."""
+    ROLLING, AUDIT = spec.rolling_friction, layout.audit
+
+    def wall_force(i, xi, xw, n0, n1, n2, u0, u1, u2, p, hist, k, dt, P, audit_part, blk):
+        v, w = P.v, P.w
+        ri = P.radius[i]
+        ai = ri - 0.5 * xi
+        vr0 = v[i, 0] - u0 - ai * (w[i, 1] * n2 - w[i, 2] * n1)
+        vr1 = v[i, 1] - u1 - ai * (w[i, 2] * n0 - w[i, 0] * n2)
+        vr2 = v[i, 2] - u2 - ai * (w[i, 0] * n1 - w[i, 1] * n0)
+        fn, f0, f1, f2, fn_el, mr = contact(p, xw, n0, n1, n2, vr0, vr1, vr2,
+                                            1.0 / P.inv_mass[i], ri, hist, k, dt)
+        g0 = fn * n0 + f0
+        g1 = fn * n1 + f1
+        g2 = fn * n2 + f2
+        if AUDIT:
+            dv0 = v[i, 0] - u0
+            dv1 = v[i, 1] - u1
+            dv2 = v[i, 2] - u2
+            audit_part[blk, 0] -= (fn - fn_el) * (vr0 * n0 + vr1 * n1 + vr2 * n2)
+            audit_part[blk, 1] -= f0 * dv0 + f1 * dv1 + f2 * dv2
+            audit_part[blk, 2] -= (f0 * (vr0 - dv0) + f1 * (vr1 - dv1) + f2 * (vr2 - dv2))
+        c0 = -ai * (n1 * f2 - n2 * f1)
+        c1 = -ai * (n2 * f0 - n0 * f2)
+        c2 = -ai * (n0 * f1 - n1 * f0)
+        if ROLLING:
+            wn = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+            if wn > 0.0:
+                m = mr * ri / wn
+                c0 -= m * w[i, 0]
+                c1 -= m * w[i, 1]
+                c2 -= m * w[i, 2]
+                if AUDIT:
+                    audit_part[blk, 2] += m * wn * wn
+        return fn, g0, g1, g2, c0, c1, c2, ai
+
+    return wall_force
+
+
+@njit(inline="always", cache=True, fastmath=FAST)
+def _wall_reaction(wp, x, i, ai, n0, n1, n2, g0, g1, g2, u0, u1, u2, wall):
+    """Reaction on a wall of force g on particle i: force, torque about the wall's point p
+    (lever from p to the contact point), and the power the wall gives."""
+    cp0 = x[i, 0] - ai * n0 - wall[1]
+    cp1 = x[i, 1] - ai * n1 - wall[2]
+    cp2 = x[i, 2] - ai * n2 - wall[3]
+    wp[0] -= g0
+    wp[1] -= g1
+    wp[2] -= g2
+    wp[3] -= cp1 * g2 - cp2 * g1
+    wp[4] -= cp2 * g0 - cp0 * g2
+    wp[5] -= cp0 * g1 - cp1 * g0
+    wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
+
+
+def _walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
     """Contacts (and lubrication) of free particle i with every wall; the reaction on each wall
     goes to its block's partial sums."""
-    ROLLING, AUDIT, PRESSURE = spec.rolling_friction, layout.audit, spec.normal_force_sum
+    AUDIT, PRESSURE = layout.audit, spec.normal_force_sum
     IMPLICIT = layout.implicit
     SPRING = law.spring_columns
     reference, loaded, wall_fluid = brk.wall_reference, brk.wall_loaded, flu.wall_fluid
     wall_rows = flu.wall_rows
     wall_apart = brk.wall_apart
     contact_with = wall_contact_bounded if spec.bounded_walls else wall_contact
-    TRANSLATING = spec.translating_walls
+    TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
 
     def walls(i, step, dt, P, W, R, err, S, blk, bs, fp, F0, F1, F2, T0, T1, T2, FS, acc):
         x, v, w = P.x, P.v, P.w
@@ -727,6 +810,8 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
             if wall[10] == 0.0:  # disabled
                 if IMPLICIT:
                     row_absent(S.lub_rows[i, iw])
+                continue
+            if MESHES and int(wall[0]) == MESH:  # below, with every mesh at once
                 continue
             xi, n0, n1, n2, u0, u1, u2 = contact_with(wall, x[i, 0], x[i, 1], x[i, 2], ri)
             if TRANSLATING:  # the surface's velocity: turning (above) plus translation
@@ -771,37 +856,11 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
                 continue
             if xw > R.max_overlap * ri and err[0] == 0:
                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
-            ai = ri - 0.5 * xi
-            vr0 = v[i, 0] - u0 - ai * (w[i, 1] * n2 - w[i, 2] * n1)
-            vr1 = v[i, 1] - u1 - ai * (w[i, 2] * n0 - w[i, 0] * n2)
-            vr2 = v[i, 2] - u2 - ai * (w[i, 0] * n1 - w[i, 1] * n0)
             p = R.pair_params[P.material[i], int(wall[9])]
-            fn, f0, f1, f2, fn_el, mr = contact(p, xw, n0, n1, n2, vr0, vr1, vr2,
-                                                1.0 / P.inv_mass[i], ri, W.hist[i], iw, dt)
-            g0 = fn * n0 + f0
-            g1 = fn * n1 + f1
-            g2 = fn * n2 + f2
-            if AUDIT:
-                dv0 = v[i, 0] - u0
-                dv1 = v[i, 1] - u1
-                dv2 = v[i, 2] - u2
-                audit_part[blk, 0] -= (fn - fn_el) * (vr0 * n0 + vr1 * n1 + vr2 * n2)
-                audit_part[blk, 1] -= f0 * dv0 + f1 * dv1 + f2 * dv2
-                audit_part[blk, 2] -= (f0 * (vr0 - dv0) + f1 * (vr1 - dv1) + f2 * (vr2 - dv2))
+            fn, g0, g1, g2, c0, c1, c2, ai = wall_force(i, xi, xw, n0, n1, n2, u0, u1, u2, p,
+                                                        W.hist[i], iw, dt, P, audit_part, blk)
             acc = loaded(bs, W.hist, i, iw, SPRING, xw, fn, g0, g1, g2, P.material[i],
                          int(wall[9]), acc)
-            c0 = -ai * (n1 * f2 - n2 * f1)
-            c1 = -ai * (n2 * f0 - n0 * f2)
-            c2 = -ai * (n0 * f1 - n1 * f0)
-            if ROLLING:
-                wn = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
-                if wn > 0.0:
-                    m = mr * ri / wn
-                    c0 -= m * w[i, 0]
-                    c1 -= m * w[i, 1]
-                    c2 -= m * w[i, 2]
-                    if AUDIT:
-                        audit_part[blk, 2] += m * wn * wn
             F0 += g0
             F1 += g1
             F2 += g2
@@ -810,21 +869,101 @@ def _walls_kernel(spec, law, brk, flu, layout, contact):
             T0 += c0
             T1 += c1
             T2 += c2
-            # Reaction on the wall: force, torque about its point p, power given.
-            cp0 = x[i, 0] - ai * n0 - wall[1]
-            cp1 = x[i, 1] - ai * n1 - wall[2]
-            cp2 = x[i, 2] - ai * n2 - wall[3]
-            wp = wall_part[blk, iw]
-            wp[0] -= g0
-            wp[1] -= g1
-            wp[2] -= g2
-            wp[3] -= cp1 * g2 - cp2 * g1
-            wp[4] -= cp2 * g0 - cp0 * g2
-            wp[5] -= cp0 * g1 - cp1 * g0
-            wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
+            _wall_reaction(wall_part[blk, iw], x, i, ai, n0, n1, n2, g0, g1, g2, u0, u1, u2, wall)
+        if MESHES:
+            F0, F1, F2, T0, T1, T2, FS = meshes(i, step, dt, P, W, R, err, S, blk, F0, F1, F2,
+                                                 T0, T1, T2, FS)
         return F0, F1, F2, T0, T1, T2, FS, acc
 
     return walls
+
+
+def _mesh_kernel(spec, layout, wall_force):
+    """Contacts of free particle i with the triangles of every mesh wall (engine.mesh): the
+    candidates listed at the last rebuild, one contact per shared feature, history slots
+    matched by normal."""
+    PRESSURE = spec.normal_force_sum
+    TAG = layout.wall_columns
+
+    def meshes(i, step, dt, P, W, R, err, S, blk, F0, F1, F2, T0, T1, T2, FS):
+        M = W
+        x = P.x
+        hist = M.mesh_hist[i]
+        ri = P.radius[i]
+        k0, k1 = M.cand_start[i], M.cand_start[i + 1]
+        seen = 0
+        current = -1
+        active = False
+        c = s = y0 = y1 = y2 = 0.0
+        for k in range(k0, k1):
+            t = M.cand_tri[k]
+            iw = M.tri_wall[t]
+            wall = W.table[iw]
+            if iw != current:  # the particle in this mesh's frame
+                current = iw
+                active = wall[10] != 0.0
+                c, s = wall[11], wall[12]
+                y0, y1, y2 = rotate(c, -s, wall[4], wall[5], wall[6], x[i, 0] - wall[1],
+                                    x[i, 1] - wall[2], x[i, 2] - wall[3])
+            if not active:
+                continue
+            xi, m0, m1, m2, region = triangle_contact(M, t, y0, y1, y2, ri)
+            if xi <= 0.0:
+                continue
+            if region != FACE and not counted(M, k0, k1, k, t, region, y0, y1, y2, ri):
+                continue
+            if xi > R.max_overlap * ri and err[0] == 0:
+                err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
+            # the slot of this contact: the one whose normal is near, else a free one
+            slot = -1
+            for q in range(MESH_SLOTS):
+                if (not (seen >> q) & 1 and hist[q, TAG + 3] == iw + 1
+                        and hist[q, TAG] * m0 + hist[q, TAG + 1] * m1 + hist[q, TAG + 2] * m2
+                        > SAME_CONTACT_COS):
+                    slot = q
+                    break
+            if slot < 0:
+                for q in range(MESH_SLOTS):
+                    if not (seen >> q) & 1 and hist[q, TAG + 3] == 0.0:
+                        slot = q
+                        break
+            if slot < 0:
+                if err[0] == 0:
+                    err[0], err[1], err[2], err[3] = ERR_MESH_SLOTS, step, i, -1 - iw
+                continue
+            seen |= 1 << slot
+            hist[slot, TAG], hist[slot, TAG + 1], hist[slot, TAG + 2] = m0, m1, m2
+            hist[slot, TAG + 3] = iw + 1
+            n0, n1, n2 = rotate(c, s, wall[4], wall[5], wall[6], m0, m1, m2)
+            # the surface's velocity at the contact point (mid-overlap): turning plus translation
+            lever = ri - 0.5 * xi
+            d0 = x[i, 0] - lever * n0 - wall[1]
+            d1 = x[i, 1] - lever * n1 - wall[2]
+            d2 = x[i, 2] - lever * n2 - wall[3]
+            om = wall[8]
+            u0 = om * (wall[5] * d2 - wall[6] * d1) + wall[15]
+            u1 = om * (wall[6] * d0 - wall[4] * d2) + wall[16]
+            u2 = om * (wall[4] * d1 - wall[5] * d0) + wall[17]
+            p = R.pair_params[P.material[i], M.tri_material[t]]
+            fn, g0, g1, g2, c0, c1, c2, ai = wall_force(i, xi, xi, n0, n1, n2, u0, u1, u2, p,
+                                                        hist, slot, dt, P, S.audit_part, blk)
+            F0 += g0
+            F1 += g1
+            F2 += g2
+            if PRESSURE:
+                FS += fn
+            T0 += c0
+            T1 += c1
+            T2 += c2
+            _wall_reaction(S.wall_part[blk, iw], x, i, ai, n0, n1, n2, g0, g1, g2, u0, u1, u2,
+                           wall)
+        for q in range(MESH_SLOTS):  # contacts that ended
+            if not (seen >> q) & 1 and hist[q, TAG + 3] != 0.0:
+                for col in range(hist.shape[1]):
+                    hist[q, col] = 0.0
+        return F0, F1, F2, T0, T1, T2, FS
+
+    return meshes
 
 
 def _lub_finish_kernel(spec, layout, finish):

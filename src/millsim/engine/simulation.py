@@ -26,8 +26,10 @@ from .kinematics import (
     B_RATE,
     BODY_COLUMNS,
     BODY_KINDS,
+    MESH,
     PLANE,
     W_ACTIVE,
+    W_ANGLE_REF,
     W_AXIS,
     W_KIND,
     W_MATERIAL,
@@ -36,12 +38,30 @@ from .kinematics import (
     W_POINT,
     W_RADIUS,
     W_SEGMENT,
+    W_TIME_REF,
     W_VELOCITY,
     WALL_COLUMNS,
     WALL_KINDS,
     wall_contact_bounded,
 )
-from .loop import AUDIT_TERMS, ERR_NONFINITE, ERR_OVERLAP, ERR_SPEED, N_AUDIT, Layout
+from .loop import (
+    AUDIT_TERMS,
+    ERR_MESH_SLOTS,
+    ERR_NONFINITE,
+    ERR_OVERLAP,
+    ERR_SPEED,
+    N_AUDIT,
+    Layout,
+)
+from .mesh import (
+    MESH_SLOTS,
+    TAG_COLUMNS,
+    build_meshes,
+    mesh_geometry,
+    mesh_overlaps,
+    no_meshes,
+    with_mesh_candidates,
+)
 from .neighbours import rebuilt_contacts
 from .spec import PhysicsSpec, chunk_runner
 from .state import (
@@ -207,6 +227,7 @@ class Simulation:
         n = len(radius)
         if n == 0:
             raise ValueError("radius: at least one particle is required")
+        self._mesh_geometry = []  # (wall row, vertices in the frame, faces, material)
         self.walls = self._wall_table(walls)
         self.bodies = self._body_table(bodies)
         self.gravity = np.asarray(gravity, dtype=float).reshape(3)
@@ -222,6 +243,9 @@ class Simulation:
         if fluid is not None and spec.translating_walls:
             raise ValueError("translating_walls: not with a fluid (the wall lubrication knows "
                              "only a wall's turning)")
+        if self._mesh_geometry and (fluid is not None or breakage is not None):
+            raise ValueError("walls: mesh walls are dry and without breakage for now (no "
+                             "lubrication or progeny reference state at a triangle)")
         self.layout = Layout(self.law.spring_columns,
                              len(breakage.contact_columns) if breakage else 0,
                              len(breakage.wall_columns) if breakage else 0,
@@ -253,8 +277,11 @@ class Simulation:
         nb, nw = len(self.bodies), len(self.walls)
         self._B = BodyArrays(self.bodies, np.zeros(0, dtype=np.int64), np.zeros((nb, 6)),
                              np.zeros((nb, 6)), np.zeros(nb))
+        mesh = (build_meshes(self._mesh_geometry, nw, n, self.layout.wall_columns,
+                             2.0 * float(np.max(radius)) + self.skin)
+                if self._mesh_geometry else no_meshes(n, self.layout.wall_columns))
         self._W = WallArrays(self.walls, np.zeros((n, nw, self.layout.wall_columns)),
-                             np.zeros((nw, 6)), np.zeros(nw))
+                             np.zeros((nw, 6)), np.zeros(nw), *mesh)
         self._refresh_members()
         for model in self._fields:
             model.attach(self)
@@ -340,12 +367,15 @@ class Simulation:
                 raise ValueError(f"{key}.kind: must be one of {sorted(WALL_KINDS)}, got {kind!r}")
             table[k, 0] = WALL_KINDS[kind]
             table[k, W_POINT] = np.asarray(wall.get("point", (0, 0, 0)), dtype=float)
-            table[k, W_AXIS] = _unit(wall.get("normal", wall.get("axis")), f"{key}.axis")
-            if kind in ("cylinder_inner", "cylinder_outer"):
+            table[k, W_AXIS] = _unit(wall.get("normal", wall.get("axis", (0, 0, 1) if kind == "mesh"
+                                                               else None)), f"{key}.axis")
+            if kind == "mesh":
+                table[k, W_RADIUS] = self._mesh_wall(key, k, wall, table[k])
+            elif kind in ("cylinder_inner", "cylinder_outer"):
                 table[k, W_RADIUS] = wall["radius"]
                 if table[k, W_RADIUS] <= 0:
                     raise ValueError(f"{key}.radius: must be > 0")
-            elif kind != "plane":
+            elif kind not in ("plane", "mesh"):
                 if not self.spec.bounded_walls:
                     raise ValueError(f"{key}.kind: {kind} walls need PhysicsSpec(bounded_walls=True)")
                 table[k, W_SEGMENT] = self._frustum_segment(key, kind, wall)
@@ -363,6 +393,23 @@ class Simulation:
         if len(walls) and not self.spec.walls:
             raise ValueError("walls: given but spec.walls is false")
         return table
+
+    def _mesh_wall(self, key, k, wall, row):
+        """Read and check a mesh wall's triangles (file or vertices and faces, in the world at
+        t = 0, metres after ``scale``); returns its farthest vertex from the axis [m]."""
+        if not self.spec.mesh_walls:
+            raise ValueError(f"{key}.kind: mesh walls need PhysicsSpec(mesh_walls=True)")
+        unknown = set(wall) - {"kind", "file", "scale", "vertices", "faces", "point", "axis",
+                                "omega", "velocity", "material"}
+        if unknown:
+            raise ValueError(f"{key}: unknown keys {sorted(unknown)} for a mesh wall")
+        vertices, faces = mesh_geometry(key, wall)
+        frame = vertices - row[W_POINT]  # the frame's origin is the wall's point
+        along = frame @ row[W_AXIS]
+        arm = np.sqrt(np.maximum((frame**2).sum(1) - along**2, 0.0))
+        self._mesh_geometry.append((k, np.ascontiguousarray(frame), faces,
+                                    self.material_index(wall["material"])))
+        return float(arm.max())
 
     def _wall_velocity(self, key, velocity):
         velocity = np.asarray(velocity, dtype=float)
@@ -427,7 +474,14 @@ class Simulation:
             ratio = overlap / np.minimum(p.radius[i], p.radius[j])
             k = int(np.argmax(ratio))
             worst, what = float(ratio[k]), f"particles {i[k]} and {j[k]}"
+        if self._mesh_geometry:
+            xi = mesh_overlaps(self._W, self.walls, p.x, p.radius, p.body, self.time)
+            q = int(np.argmax(xi / p.radius))
+            if xi[q] / p.radius[q] > worst:
+                worst, what = float(xi[q] / p.radius[q]), f"particle {q} and a mesh wall"
         for iw, wall in enumerate(self.walls):
+            if wall[W_KIND] == MESH:
+                continue
             for q in np.flatnonzero(self.free):
                 xi = wall_contact_bounded(wall, p.x[q, 0], p.x[q, 1], p.x[q, 2], p.radius[q])[0]
                 if xi / p.radius[q] > worst:
@@ -453,6 +507,8 @@ class Simulation:
         self.contacts = rebuilt_contacts(self.particles, old, self.skin + self.reach,
                                          self.spec.dim, self.box_lo, self.box_len,
                                          self.spec.periodic)
+        if self._mesh_geometry:
+            self._W = with_mesh_candidates(self._W, self.particles, self.skin, self.time)
 
     # ---- time step ----------------------------------------------------------------------------
     def _time_step_report(self):
@@ -553,9 +609,9 @@ class Simulation:
         p, settings, bs, fp = self._bundles()
         self.accumulators.err[:] = 0
         with _signals_after_chunk():
-            steps, contacts, events = runner(n, self.time, self.dt, self.step, p, self.contacts,
-                                             self._W, self._B, settings, self.accumulators, bs,
-                                             fp, self.events, not self._forces_current)
+            steps, contacts, self._W, events = runner(
+                n, self.time, self.dt, self.step, p, self.contacts, self._W, self._B, settings,
+                self.accumulators, bs, fp, self.events, not self._forces_current)
         self._forces_current = True
         done = int(steps)
         self.contacts = ContactList(*contacts)
@@ -618,6 +674,10 @@ class Simulation:
             first = int(np.flatnonzero(bad)[0]) if bad.any() else i
             return (f"{where}: particle {first} has a non-finite velocity (NaN/inf); "
                     f"{int(bad.sum())} particle(s) affected")
+        if code == ERR_MESH_SLOTS:
+            return (f"{where}: particle {i} touches more mesh triangles at once than its "
+                    f"{MESH_SLOTS} contact slots (a mesh with slivers or a crevice narrower than "
+                    "a particle); check the mesh")
         if code == ERR_SPEED:
             speed = np.linalg.norm(p.v, axis=1)
             i = int(np.argmax(np.where(self.free, speed, 0.0)))
@@ -648,18 +708,28 @@ class Simulation:
         if radius is not None:
             row[W_RADIUS] = check_range(f"walls[{index}].radius", radius, 0.0, lo_open=True)
         if omega is not None:
+            if row[W_KIND] == MESH:  # the angle goes on from where it is
+                row[W_ANGLE_REF] += row[W_OMEGA] * (self.time - row[W_TIME_REF])
+                row[W_TIME_REF] = self.time
             row[W_OMEGA] = float(omega)
 
     def disable_wall(self, index):
         """Take wall ``index`` away: no contact, no lubrication, no load from now on."""
         self.walls[index, W_ACTIVE] = 0.0
         self.wall_hist[:, index, :] = 0.0
+        self._forget_mesh_contacts(index)
 
     def enable_wall(self, index):
         """Put wall ``index`` (back) in place, with no contact history (e.g. a silo's bottom once
         its gate is taken away)."""
         self.walls[index, W_ACTIVE] = 1.0
         self.wall_hist[:, index, :] = 0.0
+        self._forget_mesh_contacts(index)
+
+    def _forget_mesh_contacts(self, index):
+        hist = self._W.mesh_hist
+        if hist.shape[0]:
+            hist[hist[:, :, self.layout.wall_columns + 3] == index + 1] = 0.0
 
     def impulse(self, *, wall=None, body=None):
         """Force impulse [N s] a wall or body has received from the particles since the start."""
@@ -698,7 +768,8 @@ class Simulation:
         relabelled = ContactList(np.cumsum(start), nj.astype(np.int32), old.state[sel],
                                  old.rev_start, old.rev_slot)
         self.particles = select_rows(self.particles, keep, n)
-        self._W = self._W._replace(hist=self._W.hist[keep])
+        mesh_hist = self._W.mesh_hist[keep] if self._mesh_geometry else self._W.mesh_hist
+        self._W = self._W._replace(hist=self._W.hist[keep], mesh_hist=mesh_hist)
         self.tags = {name: values[keep] for name, values in self.tags.items()}
         self.particle_ids, self.parent_ids = self.particle_ids[keep], self.parent_ids[keep]
         for model in self._fields:
@@ -726,8 +797,13 @@ class Simulation:
                              f"{parents!r}")
         new = self._make_particles(x, radius, material, v, w, None)
         self.particles = append_rows(self.particles, new, n_old)
+        mesh_hist = self._W.mesh_hist
+        if self._mesh_geometry:
+            mesh_hist = np.concatenate([mesh_hist, np.zeros(
+                (m, MESH_SLOTS, self.layout.wall_columns + TAG_COLUMNS))])
         self._W = self._W._replace(hist=np.concatenate(
-            [self._W.hist, np.zeros((m, len(self.walls), self.layout.wall_columns))]))
+            [self._W.hist, np.zeros((m, len(self.walls), self.layout.wall_columns))]),
+            mesh_hist=mesh_hist)
         for name in self.tags:
             self.tags[name] = np.concatenate([self.tags[name], self._tag_array(name, tags[name], m)])
         self.particle_ids = np.concatenate([self.particle_ids,
@@ -766,6 +842,7 @@ class Simulation:
         p.alpha[:] = 0.0
         p.gear[:] = 0.0
         self._W.hist[:] = 0.0
+        self._W.mesh_hist[:] = 0.0
         for model in self._fields:
             model.reset_events()
         self._after_change(self.contacts)

@@ -30,6 +30,7 @@ class PhysicsSpec:
         gravity, walls, bodies, periodic: whether those terms exist at all.
         bounded_walls: frustum and annulus walls (engine.kinematics) compiled in (needs walls).
         translating_walls: walls that translate at a constant velocity compiled in (needs walls).
+        mesh_walls: triangle-mesh walls (engine.mesh) compiled in (needs walls; 3D).
         normal_force_sum: keep each particle's sum of contact normal forces (pressure maps,
             force chains).
         energy_audit: integrate the power dissipated by contact damping, by the tangential force
@@ -44,6 +45,7 @@ class PhysicsSpec:
     walls: bool = False
     bounded_walls: bool = False
     translating_walls: bool = False
+    mesh_walls: bool = False
     bodies: bool = False
     periodic: bool = False
     normal_force_sum: bool = False
@@ -60,6 +62,8 @@ class PhysicsSpec:
             raise ValueError("bounded_walls: needs walls=True")
         if self.translating_walls and not self.walls:
             raise ValueError("translating_walls: needs walls=True")
+        if self.mesh_walls and not (self.walls and self.dim == 3):
+            raise ValueError("mesh_walls: needs walls=True and dim=3")
 
     @property
     def clip_normal(self):

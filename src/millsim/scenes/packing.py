@@ -12,6 +12,8 @@ import math
 import numpy as np
 
 from ..engine import PhysicsSpec, Simulation, StepPolicy
+from ..engine.mesh import signed_clearance
+from ..engine.mesh_io import read_mesh
 from ..models import Interaction, Material, MaterialTable
 from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, check_particle_memory, register
 from .driver import Case, Series
@@ -27,6 +29,11 @@ PARAMS = (
     Param("drum_radius", 0.04, "drum inner radius (drum)", "m", 0.0, lo_open=True),
     Param("drum_length", 0.04, "drum length along its horizontal y axis (drum)", "m", 0.0, lo_open=True),
     Param("drum_omega", 9.5, "drum angular velocity (drum)", "rad s-1"),
+    Param("liner", "", "STL of the drum's shell as a closed solid, axis along y from y = 0 to "
+          "drum_length (drum; docs/walls.md): a mesh wall turning with the drum instead of the "
+          "cylinder of drum_radius (the lattice start stays inside drum_radius, clear of it)"),
+    Param("liner_scale", 1.0, "factor from the liner STL's units to m (1e-3: mm)", "1", 0.0,
+          lo_open=True),
     Param("integrator", "verlet", "time integrator", choices=("verlet", "gear")),
     Param("skin", 2e-4, "Verlet skin", "m", 0.0, lo_open=True),
     Param("settle_dt", 1e-5, "time step of the settling and spin-up stages", "s", 0.0, lo_open=True),
@@ -63,6 +70,12 @@ def _lattice(values, rng):
         along = np.arange(r * 1.1, values["drum_length"] - r * 1.1 + 1e-12, a)
         g = np.stack(np.meshgrid(span, along, span, indexing="ij"), -1).reshape(-1, 3)
         g = g[np.hypot(g[:, 0], g[:, 2]) < big - 0.2 * r]
+        if values["liner"]:  # clear of the liner's lifters
+            vertices, faces = read_mesh(values["liner"], values["liner_scale"])
+            tri = vertices[faces]
+            normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            normal /= np.linalg.norm(normal, axis=1)[:, None]
+            g = g[signed_clearance(tri, normal, np.ascontiguousarray(g)) > 1.3 * r]
         if len(g) < values["n"]:
             raise ValueError(f"n: {values['n']} spheres do not fit in the drum (room for {len(g)})")
         # Fill from the bottom: the settled charge starts where it will lie.
@@ -78,8 +91,12 @@ def _walls(values):
                 dict(kind="plane", point=(w, 0, 0), normal=(-1, 0, 0), material="grain"),
                 dict(kind="plane", point=(0, 0, 0), normal=(0, 1, 0), material="grain"),
                 dict(kind="plane", point=(0, w, 0), normal=(0, -1, 0), material="grain")]
-    return [dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 1, 0), radius=values["drum_radius"],
-                 omega=0.0, material="grain"),
+    shell = (dict(kind="mesh", file=values["liner"], scale=values["liner_scale"],
+                  point=(0, 0, 0), axis=(0, 1, 0), omega=0.0, material="grain")
+             if values["liner"] else
+             dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 1, 0),
+                  radius=values["drum_radius"], omega=0.0, material="grain"))
+    return [shell,
             dict(kind="plane", point=(0, 0, 0), normal=(0, 1, 0), material="grain"),
             dict(kind="plane", point=(0, values["drum_length"], 0), normal=(0, -1, 0), material="grain")]
 
@@ -108,7 +125,8 @@ def build(values):
                                                    rolling_friction=values["rolling_friction"])},
                           "hertz_mindlin")
     spec = PhysicsSpec(dim=3, integrator=values["integrator"], convention=values["convention"],
-                       rolling_friction=values["rolling_friction"] > 0, walls=True)
+                       rolling_friction=values["rolling_friction"] > 0, walls=True,
+                       mesh_walls=bool(values["liner"]) and values["container"] == "drum")
     v = w = None
     if values["init_file"]:
         x, v, w = read_state(values["init_file"])

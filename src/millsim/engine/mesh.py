@@ -1,0 +1,402 @@
+"""Triangle-mesh walls: rigid triangulated solids (liners, lifters, chambers from CAD).
+
+A mesh is one row of the wall table (kind ``MESH``, engine.kinematics) for its motion, material
+and loads, plus its triangles in :class:`MeshArrays`, stored in the mesh's own frame: a world point
+is ``p(t) + R(theta(t)) y`` for the frame point y, with p(t) = origin + v t the wall's point and
+R the rotation by theta(t) = theta_ref + omega (t - t_ref) about the wall's axis through p. The
+triangles never move in that frame, so they are binned once in a uniform grid; each neighbour-list
+rebuild lists, per particle, the triangles within its radius plus the skin in the frame at that
+time (``rebuilt_mesh_candidates``), and the loop asks for a rebuild before the mesh's fastest
+point has travelled half the skin (loop ``advance``), so that with the particles' own half skin no
+contact is missed.
+
+Contact with a triangle (Ericson, Real-Time Collision Detection, 2005, sec. 5.1.5: the closest
+point and whether it lies in the face, on an edge or at a vertex). Faces are one-sided: the mesh
+is a closed solid whose normals point into the particles' domain (``engine.mesh_io``), and a
+particle whose centre is behind a triangle's plane does not touch that triangle. Across shared
+features one contact counts (the double counting that makes a sphere rolling over a flat
+triangulated plane feel a bump at every edge): an edge or vertex contact counts only when the
+centre lies in that feature's Voronoi region, i.e. every triangle sharing the feature finds its
+closest point on that feature too (a flat edge's region is empty: the face beside it counts;
+a convex edge's region is the wedge between its faces' normals), and then once, from the
+lowest triangle that touches it there. This is the face > edge > vertex precedence of the
+DEM mesh contact literature (e.g. Hu et al., Granular Matter 2013; LIGGGHTS ``mesh/surface``
+drops edge and vertex contacts hidden by a face). Face contacts at a concave corner (a lifter's
+root) are distinct contacts and both count.
+
+Each particle has MESH_SLOTS contact-history slots for all meshes; a contact keeps the slot whose
+stored normal (in the mesh frame) is within 45 degrees of its own, so that the tangential spring
+carries on when a particle rolls from one triangle to the next.
+"""
+
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .state import MESH_FIELDS
+
+MESH_SLOTS = 6
+TAG_COLUMNS = 4  # per slot after the contact state: the normal in the mesh frame (3), wall + 1
+SAME_CONTACT_COS = math.cos(math.pi / 4.0)
+# region of the closest point: the face, a vertex (a, b, c), an edge (ab, ac, bc)
+FACE, VERTEX_A, VERTEX_B, VERTEX_C, EDGE_AB, EDGE_AC, EDGE_BC = 0, 1, 2, 3, 4, 5, 6
+# grid row per wall: lower corner (3), cell size, cells per axis (3), first cell's index
+G_LO, G_SIZE, G_CELLS, G_OFFSET = slice(0, 3), 3, slice(4, 7), 7
+GRID_COLUMNS = 8
+MAX_CELLS = 2_000_000  # per mesh; a coarser grid beyond (a huge mesh around tiny particles)
+
+# tri: vertices (T, 3, 3) in the frame; normal: unit outward normals (T, 3); vertex: global vertex
+# ids (T, 3); wall: the wall row (T,); material (T,); grid, cell_start, cell_tri: the binned
+# triangles; cand_start, cand_tri: per particle, the triangles near it (CSR, rebuilt with the
+# neighbour list); hist: per particle and slot, the contact state and tag; built: the time of
+# the candidates (1,).
+MeshArrays = namedtuple("MeshArrays", MESH_FIELDS)
+
+
+def no_meshes(n, columns):
+    """MeshArrays of a run without meshes (length-0 arrays, never read by its loop)."""
+    return MeshArrays(np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3), np.int64),
+                      np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, GRID_COLUMNS)),
+                      np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(n + 1, np.int64),
+                      np.zeros(0, np.int64), np.zeros((0, MESH_SLOTS, columns + TAG_COLUMNS)),
+                      np.zeros(1))
+
+
+def build_meshes(meshes, n_walls, n, columns, cell_size):
+    """MeshArrays of the meshes ``[(wall row, vertices in the frame (V, 3), faces (F, 3),
+    material index)]``; ``cell_size`` [m]: the grid's cell (about a particle diameter plus skin).
+    """
+    tris, normals, vertex_ids, walls, materials = [], [], [], [], []
+    grid = np.zeros((n_walls, GRID_COLUMNS))
+    starts, cells = [np.zeros(1, np.int64)], []
+    offset, first_vertex, first_tri = 0, 0, 0
+    for row, vertices, faces, material in meshes:
+        tri = vertices[faces]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        lo, hi = tri.min(axis=(0, 1)), tri.max(axis=(0, 1))
+        size = float(cell_size)
+        while np.prod(np.floor((hi - lo) / size) + 1) > MAX_CELLS:
+            size *= 2.0
+        shape = (np.floor((hi - lo) / size) + 1).astype(np.int64)
+        grid[row, G_LO], grid[row, G_SIZE], grid[row, G_CELLS] = lo, size, shape
+        grid[row, G_OFFSET] = offset
+        start, cell_tri = _bin_triangles(tri, lo, size, shape)
+        starts.append(start[1:] + cells_total(cells))
+        cells.append(cell_tri + first_tri)
+        offset += int(np.prod(shape))
+        tris.append(tri)
+        normals.append(normal)
+        vertex_ids.append(faces + first_vertex)
+        walls.append(np.full(len(faces), row, np.int64))
+        materials.append(np.full(len(faces), material, np.int64))
+        first_vertex += len(vertices)
+        first_tri += len(faces)
+    return MeshArrays(np.ascontiguousarray(np.concatenate(tris)), np.concatenate(normals),
+                      np.concatenate(vertex_ids).astype(np.int64), np.concatenate(walls),
+                      np.concatenate(materials), grid, np.concatenate(starts),
+                      np.concatenate(cells), np.zeros(n + 1, np.int64), np.zeros(0, np.int64),
+                      np.zeros((n, MESH_SLOTS, columns + TAG_COLUMNS)), np.full(1, -np.inf))
+
+
+def cells_total(cells):
+    return sum(len(c) for c in cells)
+
+
+@njit(cache=True)
+def _bin_triangles(tri, lo, size, shape):
+    """CSR of the triangles overlapping each cell (by bounding box)."""
+    count = np.zeros(shape[0] * shape[1] * shape[2] + 1, np.int64)
+    for fill in range(2):
+        if fill:
+            for c in range(1, count.shape[0]):
+                count[c] += count[c - 1]
+            out = np.empty(count[-1], np.int64)
+            pos = count[:-1].copy()
+        else:
+            out = np.empty(0, np.int64)
+            pos = np.empty(0, np.int64)
+        for t in range(tri.shape[0]):
+            c_lo = np.empty(3, np.int64)
+            c_hi = np.empty(3, np.int64)
+            for a in range(3):
+                mn = min(tri[t, 0, a], tri[t, 1, a], tri[t, 2, a])
+                mx = max(tri[t, 0, a], tri[t, 1, a], tri[t, 2, a])
+                c_lo[a] = min(shape[a] - 1, max(0, int((mn - lo[a]) / size)))
+                c_hi[a] = min(shape[a] - 1, max(0, int((mx - lo[a]) / size)))
+            for cx in range(c_lo[0], c_hi[0] + 1):
+                for cy in range(c_lo[1], c_hi[1] + 1):
+                    for cz in range(c_lo[2], c_hi[2] + 1):
+                        cell = (cx * shape[1] + cy) * shape[2] + cz
+                        if fill:
+                            out[pos[cell]] = t
+                            pos[cell] += 1
+                        else:
+                            count[cell + 1] += 1
+    return count, out
+
+
+@njit(inline="always", cache=True)
+def mesh_angle(wall, time):
+    """The mesh's angle about its axis at ``time`` (columns 13, 14: angle and time of the last
+    change of omega)."""
+    return wall[13] + wall[8] * (time - wall[14])
+
+
+@njit(inline="always", cache=True)
+def rotate(c, s, a0, a1, a2, d0, d1, d2):
+    """d rotated about the unit axis a by the angle whose cosine and sine are c, s (Rodrigues)."""
+    ad = (a0 * d0 + a1 * d1 + a2 * d2) * (1.0 - c)
+    return (d0 * c + (a1 * d2 - a2 * d1) * s + a0 * ad,
+            d1 * c + (a2 * d0 - a0 * d2) * s + a1 * ad,
+            d2 * c + (a0 * d1 - a1 * d0) * s + a2 * ad)
+
+
+@njit(inline="always", cache=True)
+def closest_on_triangle(tri, y0, y1, y2):
+    """Closest point of triangle ``tri`` (3, 3) to y, and its region (Ericson 2005, 5.1.5)."""
+    a0, a1, a2 = tri[0, 0], tri[0, 1], tri[0, 2]
+    ab0, ab1, ab2 = tri[1, 0] - a0, tri[1, 1] - a1, tri[1, 2] - a2
+    ac0, ac1, ac2 = tri[2, 0] - a0, tri[2, 1] - a1, tri[2, 2] - a2
+    ap0, ap1, ap2 = y0 - a0, y1 - a1, y2 - a2
+    d1 = ab0 * ap0 + ab1 * ap1 + ab2 * ap2
+    d2 = ac0 * ap0 + ac1 * ap1 + ac2 * ap2
+    if d1 <= 0.0 and d2 <= 0.0:
+        return a0, a1, a2, VERTEX_A
+    bp0, bp1, bp2 = y0 - tri[1, 0], y1 - tri[1, 1], y2 - tri[1, 2]
+    d3 = ab0 * bp0 + ab1 * bp1 + ab2 * bp2
+    d4 = ac0 * bp0 + ac1 * bp1 + ac2 * bp2
+    if d3 >= 0.0 and d4 <= d3:
+        return tri[1, 0], tri[1, 1], tri[1, 2], VERTEX_B
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return a0 + v * ab0, a1 + v * ab1, a2 + v * ab2, EDGE_AB
+    cp0, cp1, cp2 = y0 - tri[2, 0], y1 - tri[2, 1], y2 - tri[2, 2]
+    d5 = ab0 * cp0 + ab1 * cp1 + ab2 * cp2
+    d6 = ac0 * cp0 + ac1 * cp1 + ac2 * cp2
+    if d6 >= 0.0 and d5 <= d6:
+        return tri[2, 0], tri[2, 1], tri[2, 2], VERTEX_C
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return a0 + w * ac0, a1 + w * ac1, a2 + w * ac2, EDGE_AC
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        b0, b1, b2 = tri[1, 0], tri[1, 1], tri[1, 2]
+        return (b0 + w * (tri[2, 0] - b0), b1 + w * (tri[2, 1] - b1), b2 + w * (tri[2, 2] - b2),
+                EDGE_BC)
+    denom = 1.0 / (va + vb + vc)
+    v = vb * denom
+    w = vc * denom
+    return (a0 + ab0 * v + ac0 * w, a1 + ab1 * v + ac1 * w, a2 + ab2 * v + ac2 * w, FACE)
+
+
+@njit(inline="always", cache=True)
+def triangle_contact(M, t, y0, y1, y2, r):
+    """Contact of a sphere (centre y in the frame, radius r) with triangle t: (overlap, unit
+    normal triangle -> centre in the frame, region); overlap <= 0: none (also behind the face)."""
+    nf = M.tri_normal[t]
+    tri = M.tri[t]
+    height = (y0 - tri[0, 0]) * nf[0] + (y1 - tri[0, 1]) * nf[1] + (y2 - tri[0, 2]) * nf[2]
+    if height <= 0.0 or height >= r:
+        return -1.0, 0.0, 0.0, 0.0, -1
+    q0, q1, q2, region = closest_on_triangle(tri, y0, y1, y2)
+    if region == FACE:  # the plane's normal and distance exactly, as for an analytic plane
+        return r - height, nf[0], nf[1], nf[2], FACE
+    e0, e1, e2 = y0 - q0, y1 - q1, y2 - q2
+    dist = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    if dist >= r:
+        return -1.0, 0.0, 0.0, 0.0, -1
+    return r - dist, e0 / dist, e1 / dist, e2 / dist, region
+
+
+@njit(inline="always", cache=True)
+def _feature(M, t, region):
+    """The vertex ids of a feature: (a, b) of an edge, (a, -1) of a vertex."""
+    v = M.tri_vertex[t]
+    if region == EDGE_AB:
+        return v[0], v[1]
+    if region == EDGE_AC:
+        return v[0], v[2]
+    if region == EDGE_BC:
+        return v[1], v[2]
+    return v[region - VERTEX_A], -1
+
+
+@njit(inline="always", cache=True)
+def _has(M, t, vid):
+    v = M.tri_vertex[t]
+    return v[0] == vid or v[1] == vid or v[2] == vid
+
+
+@njit(inline="always", cache=True)
+def counted(M, k0, k1, k, t, region, y0, y1, y2, r):
+    """Whether triangle t's edge or vertex contact counts, given the other candidates k0..k1 of
+    the same particle: only if the centre lies in that feature's Voronoi region (every triangle
+    sharing the feature has its closest point there too; else the centre is nearer another part
+    of the surface, e.g. the face beside a flat edge) and no lower triangle touching it there
+    counts it already."""
+    fa, fb = _feature(M, t, region)
+    for kk in range(k0, k1):
+        u = M.cand_tri[kk]
+        if kk == k or M.tri_wall[u] != M.tri_wall[t] or not _has(M, u, fa):
+            continue
+        if fb >= 0 and not _has(M, u, fb):
+            continue
+        reg = closest_on_triangle(M.tri[u], y0, y1, y2)[3]
+        if reg == FACE:
+            return False
+        ua, ub = _feature(M, u, reg)
+        if not ((ua == fa and ub == fb) or (ua == fb and ub == fa)):
+            return False
+        if u < t and triangle_contact(M, u, y0, y1, y2, r)[0] > 0.0:
+            return False
+    return True
+
+
+@njit(cache=True)
+def rebuilt_mesh_candidates(M, table, x, radius, body, margin, time):
+    """Per particle, the triangles within its radius + ``margin`` at ``time`` (CSR); free
+    particles only."""
+    n = x.shape[0]
+    start = np.zeros(n + 1, np.int64)
+    stamp = np.full(M.tri.shape[0], -1, np.int64)
+    out = np.empty(0, np.int64)
+    for fill in range(2):
+        if fill:
+            for i in range(n):
+                start[i + 1] += start[i]
+            out = np.empty(start[n], np.int64)
+            stamp[:] = -1
+        for i in range(n):
+            if body[i] >= 0:
+                continue
+            pos = start[i] if fill else 0
+            reach = radius[i] + margin
+            for iw in range(table.shape[0]):
+                wall = table[iw]
+                if int(wall[0]) != 4 or wall[10] == 0.0:  # not an active mesh
+                    continue
+                th = mesh_angle(wall, time)
+                # frame position: rotated back by theta about the axis through p(t)
+                y0, y1, y2 = rotate(math.cos(th), -math.sin(th), wall[4], wall[5], wall[6],
+                                    x[i, 0] - wall[18] - wall[15] * time,
+                                    x[i, 1] - wall[19] - wall[16] * time,
+                                    x[i, 2] - wall[20] - wall[17] * time)
+                g = M.mesh_grid[iw]
+                size = g[3]
+                lo_c = np.empty(3, np.int64)
+                hi_c = np.empty(3, np.int64)
+                y = (y0, y1, y2)
+                outside = False
+                for a in range(3):
+                    cells = int(g[4 + a])
+                    lo_c[a] = int(math.floor((y[a] - reach - g[a]) / size))
+                    hi_c[a] = int(math.floor((y[a] + reach - g[a]) / size))
+                    if hi_c[a] < 0 or lo_c[a] >= cells:
+                        outside = True
+                    lo_c[a] = max(lo_c[a], 0)
+                    hi_c[a] = min(hi_c[a], cells - 1)
+                if outside:
+                    continue
+                ny, nz = int(g[5]), int(g[6])
+                offset = int(g[7])
+                for cx in range(lo_c[0], hi_c[0] + 1):
+                    for cy in range(lo_c[1], hi_c[1] + 1):
+                        for cz in range(lo_c[2], hi_c[2] + 1):
+                            cell = offset + (cx * ny + cy) * nz + cz
+                            for s in range(M.cell_start[cell], M.cell_start[cell + 1]):
+                                t = M.cell_tri[s]
+                                if stamp[t] == i:
+                                    continue
+                                stamp[t] = i
+                                q0, q1, q2, _ = closest_on_triangle(M.tri[t], y0, y1, y2)
+                                d2 = (y0 - q0) ** 2 + (y1 - q1) ** 2 + (y2 - q2) ** 2
+                                if d2 < reach * reach:
+                                    if fill:
+                                        out[pos] = t
+                                    pos += 1
+            if not fill:
+                start[i + 1] = pos
+    # ascending triangle order per particle: the loop visits them (and sums forces) in that order
+    for i in range(n):
+        out[start[i]:start[i + 1]] = np.sort(out[start[i]:start[i + 1]])
+    return start, out
+
+
+@njit(cache=True)
+def mesh_overlaps(M, table, x, radius, body, time):
+    """Per particle, its largest overlap with a mesh triangle (0: none), in the triangles'
+    frames at ``time`` (needs current candidates)."""
+    n = x.shape[0]
+    out = np.zeros(n)
+    for i in range(n):
+        if body[i] >= 0:
+            continue
+        for k in range(M.cand_start[i], M.cand_start[i + 1]):
+            t = M.cand_tri[k]
+            wall = table[M.tri_wall[t]]
+            th = mesh_angle(wall, time)
+            y0, y1, y2 = rotate(math.cos(th), -math.sin(th), wall[4], wall[5], wall[6],
+                                x[i, 0] - wall[18] - wall[15] * time,
+                                x[i, 1] - wall[19] - wall[16] * time,
+                                x[i, 2] - wall[20] - wall[17] * time)
+            xi = triangle_contact(M, t, y0, y1, y2, radius[i])[0]
+            out[i] = max(out[i], xi)
+    return out
+
+
+@njit(cache=True)
+def mesh_travel(W, time):
+    """How far the fastest point of any active mesh has moved since its candidates were listed."""
+    speed = 0.0
+    for iw in range(W.table.shape[0]):
+        wall = W.table[iw]
+        if int(wall[0]) == 4 and wall[10] != 0.0:
+            speed = max(speed, abs(wall[8]) * wall[7]
+                        + math.sqrt(wall[15] ** 2 + wall[16] ** 2 + wall[17] ** 2))
+    if speed == 0.0:
+        return 0.0
+    return speed * (time - W.mesh_built[0])
+
+
+def with_mesh_candidates(W, P, margin, time):
+    """W with the triangles near each particle listed at ``time`` (margin: the skin)."""
+    start, tri = rebuilt_mesh_candidates(W, W.table, P.x, P.radius, P.body, margin, time)
+    return W._replace(cand_start=start, cand_tri=tri, mesh_built=np.full(1, time))
+
+
+def mesh_geometry(key, wall):
+    """(vertices (V, 3) [m], faces (F, 3)) of a mesh wall's declaration: ``file`` (STL, times
+    ``scale``) or ``vertices`` and ``faces``; checked as a closed solid (engine.mesh_io)."""
+    from .mesh_io import checked_mesh, read_mesh
+
+    if "file" in wall:
+        if "vertices" in wall or "faces" in wall:
+            raise ValueError(f"{key}: give file or vertices and faces, not both")
+        return read_mesh(wall["file"], wall.get("scale", 1.0))
+    if "vertices" not in wall or "faces" not in wall:
+        raise ValueError(f"{key}: a mesh wall needs file (STL) or vertices and faces")
+    return checked_mesh(key, wall["vertices"], wall["faces"], wall.get("scale", 1.0))
+
+
+@njit(cache=True)
+def signed_clearance(tri, normal, points):
+    """Per point, its distance to the nearest triangle, negative inside the solid (the side of
+    the nearest triangle's normal; set-up checks, brute force over the triangles)."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        y0, y1, y2 = points[i, 0], points[i, 1], points[i, 2]
+        best, side = np.inf, 1.0
+        for t in range(tri.shape[0]):
+            q0, q1, q2, _ = closest_on_triangle(tri[t], y0, y1, y2)
+            d2 = (y0 - q0) ** 2 + (y1 - q1) ** 2 + (y2 - q2) ** 2
+            if d2 < best:
+                best = d2
+                side = (y0 - q0) * normal[t, 0] + (y1 - q1) * normal[t, 1] + (y2 - q2) * normal[t, 2]
+        out[i] = math.sqrt(best) if side >= 0.0 else -math.sqrt(best)
+    return out

@@ -1,0 +1,229 @@
+"""Triangle-mesh walls (engine.mesh) against the analytic walls and brute force written here.
+
+- Geometry: the closest point of a triangle against a dense barycentric sampling; each particle's
+  candidate triangles against a brute-force search over all triangles.
+- A sphere bouncing, sliding and rolling with friction on a flat mesh (a plate whose top is cut
+  into many triangles: shared edges and vertices on the way) moves as on the analytic plane, to
+  rounding: no bump at an edge or vertex, no double counting.
+- A sphere over a convex edge or vertex of a box touches it once: the force equals one contact
+  with a plane through the edge point, normal along the line to the centre.
+- A plate turning about its normal carries a particle as the analytic turning plane does (the
+  mesh frame's angle, the surface velocity, the list rebuilds its travel asks for), and receives
+  the same work; a rising plate as the translating plane.
+- Refusals: no spec flag, a fluid or breakage model, unknown keys.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.engine.mesh import closest_on_triangle, rebuilt_mesh_candidates
+from millsim.engine.mesh_io import box_mesh
+from millsim.models import Interaction, Material, MaterialTable
+
+R = 1e-3
+RHO = 2500.0
+K_N = 2e3
+MASS = RHO * 4.0 / 3.0 * math.pi * R**3
+MESH_SPEC = PhysicsSpec(dim=3, walls=True, mesh_walls=True)
+PLAIN_SPEC = PhysicsSpec(dim=3, walls=True)
+G = (0.0, 0.0, -9.81)
+
+
+def plate(cells, half, depth):
+    """A closed slab [-half, half]^2 x [-depth, 0] whose top is cut into cells x cells squares
+    (two triangles each) and whose sides match its edge vertices (no T-junctions)."""
+    s = np.linspace(-half, half, cells + 1)
+    gx, gy = np.meshgrid(s, s, indexing="ij")
+    top = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+    bottom = top.copy()
+    bottom[:, 2] = -depth
+    vertices = np.vstack([top, bottom])
+    nb = len(top)
+
+    def idx(i, j):
+        return i * (cells + 1) + j
+
+    faces = []
+    for i in range(cells):
+        for j in range(cells):
+            a, b, c, d = idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)
+            faces += [(a, b, c), (a, c, d)]  # up
+            faces += [(a + nb, c + nb, b + nb), (a + nb, d + nb, c + nb)]  # down
+    ring = ([idx(i, 0) for i in range(cells)] + [idx(cells, j) for j in range(cells)]
+            + [idx(i, cells) for i in range(cells, 0, -1)] + [idx(0, j) for j in range(cells, 0, -1)])
+    for k in range(len(ring)):  # counter-clockwise seen from above: outward side quads
+        a, b = ring[k], ring[(k + 1) % len(ring)]
+        faces += [(a, a + nb, b + nb), (a, b + nb, b)]
+    return vertices, np.array(faces)
+
+
+def make_sim(spec, x, v=None, w=None, walls=(), friction=0.5, gravity=G, impact_speed=1.0):
+    mat = Material("m", RHO)
+    table = MaterialTable([mat], {"*": Interaction(restitution=0.5, friction=friction,
+                                                   normal_stiffness=K_N)}, "linear_history")
+    n = len(x)
+    return Simulation(spec, table, x=np.asarray(x, float), radius=np.full(n, R), material="m",
+                      v=v, w=w, walls=list(walls), gravity=gravity, skin=0.2 * R,
+                      step=StepPolicy(impact_speed=impact_speed))
+
+
+def mesh_wall(vertices, faces, **motion):
+    return dict(kind="mesh", vertices=vertices, faces=faces, material="m", **motion)
+
+
+# ---- geometry ---------------------------------------------------------------------------------
+
+def test_closest_point_of_a_triangle_is_the_nearest_of_a_dense_sampling():
+    rng = np.random.default_rng(3)
+    u, v = np.meshgrid(np.linspace(0, 1, 401), np.linspace(0, 1, 401))
+    keep = u + v <= 1.0
+    u, v = u[keep], v[keep]
+    for _ in range(200):
+        tri = rng.normal(size=(3, 3))
+        y = rng.normal(size=3) * 2.0
+        q = np.array(closest_on_triangle(tri, *y)[:3])
+        samples = tri[0] + np.outer(u, tri[1] - tri[0]) + np.outer(v, tri[2] - tri[0])
+        best = np.sqrt(((samples - y) ** 2).sum(1)).min()
+        spacing = 2.5e-3 * np.abs(tri - tri[0]).max() * 2.0
+        dist = np.linalg.norm(q - y)
+        assert dist <= best + 1e-12
+        assert dist >= best - spacing  # not nearer than the triangle allows
+
+
+def test_candidates_are_every_triangle_within_radius_and_skin():
+    vertices, faces = plate(6, 0.01, 0.004)
+    rng = np.random.default_rng(5)
+    x = rng.uniform([-0.012, -0.012, -0.006], [0.012, 0.012, 0.003], size=(300, 3))
+    x[:, 2] = np.abs(x[:, 2]) + R  # above the top mostly; a few near the sides
+    sim = make_sim(MESH_SPEC, x[:1] + [0, 0, 0.01], walls=[mesh_wall(vertices, faces)])
+    mesh = sim._W
+    radius = np.full(len(x), R)
+    margin = 0.3 * R
+    start, tri = rebuilt_mesh_candidates(mesh, sim.walls, x, radius, np.full(len(x), -1), margin,
+                                         0.0)
+    for i in range(len(x)):
+        dist = np.array([np.linalg.norm(np.array(closest_on_triangle(mesh.tri[t], *x[i])[:3])
+                                        - x[i]) for t in range(len(faces))])
+        assert sorted(tri[start[i]:start[i + 1]]) == sorted(np.flatnonzero(dist < R + margin))
+
+
+# ---- a flat mesh is the plane -----------------------------------------------------------------
+
+@pytest.mark.parametrize("start", [
+    # bouncing and sliding along x across many edges, then rolling
+    dict(x=[-0.0087, 0.0021, 3 * R], v=[0.3, 0.0, -0.05]),
+    # along a diagonal: through shared vertices, spinning
+    dict(x=[-0.0079, -0.0079, 2 * R], v=[0.2, 0.2, -0.02], w=[5.0, -20.0, 3.0]),
+])
+def test_a_sphere_on_a_flat_mesh_moves_as_on_the_analytic_plane(start):
+    vertices, faces = plate(20, 0.02, 0.003)  # 2 mm squares: the sphere crosses a few edges
+    x, v, w = [start["x"]], [start["v"]], [start.get("w", [0.0, 0.0, 0.0])]
+    plane = make_sim(PLAIN_SPEC, x, v, w, walls=[dict(kind="plane", point=(0, 0, 0),
+                                                      normal=(0, 0, 1), material="m")])
+    mesh = make_sim(MESH_SPEC, x, v, w, walls=[mesh_wall(vertices, faces)])
+    dt = plane.dt
+    mesh.set_time_step(dt)
+    path_plane, path_mesh = [], []
+    for _ in range(40):
+        plane.run(250)
+        mesh.run(250)
+        path_plane.append(plane.particles.x[0].copy())
+        path_mesh.append(mesh.particles.x[0].copy())
+        assert np.abs(mesh.particles.v[0] - plane.particles.v[0]).max() < 1e-12
+        assert np.abs(mesh.particles.w[0] - plane.particles.w[0]).max() < 1e-9
+    travelled = np.linalg.norm(path_plane[-1][:2] - np.asarray(start["x"])[:2])
+    assert travelled > 0.006  # across three squares at least: their edges and vertices
+    assert np.abs(np.array(path_mesh) - np.array(path_plane)).max() < 1e-12
+    assert mesh.impulse(wall=0) == pytest.approx(plane.impulse(wall=0), rel=1e-9, abs=1e-15)
+
+
+@pytest.mark.parametrize("centre_offset", [
+    (0.7, 0.0, 0.7),  # beyond the top edge x = half, above it: an edge of two faces
+    (0.6, 0.6, 0.5),  # beyond the corner: a vertex of three faces, five triangles
+])
+def test_a_convex_edge_or_vertex_counts_once(centre_offset):
+    half = 0.004
+    vertices, faces = box_mesh((-half, -half, -0.002), (half, half, 0.0))
+    corner = np.array([half, 0.0 if centre_offset[1] == 0.0 else half, 0.0])
+    direction = np.asarray(centre_offset) / np.linalg.norm(centre_offset)
+    x = corner + direction * 0.9 * R  # overlap 0.1 R with the feature
+    mesh = make_sim(MESH_SPEC, [x], walls=[mesh_wall(vertices, faces)], friction=0.0,
+                    gravity=(0.0, 0.0, 0.0))
+    plane = make_sim(PLAIN_SPEC, [x], walls=[dict(kind="plane", point=corner, normal=direction,
+                                                  material="m")], friction=0.0,
+                     gravity=(0.0, 0.0, 0.0))
+    mesh.run(1)
+    plane.run(1)
+    assert np.abs(mesh.particles.v[0] - plane.particles.v[0]).max() < 1e-12 * np.abs(
+        plane.particles.v[0]).max()
+    tags = mesh._W.mesh_hist[0, :, mesh.layout.wall_columns + 3]
+    assert (tags != 0).sum() == 1
+
+
+# ---- moving meshes ----------------------------------------------------------------------------
+
+def test_a_turning_plate_carries_a_particle_as_the_analytic_turning_plane():
+    """A plate turning about its normal (z through the origin): a resting particle off the axis
+    is dragged along; the mesh's angle advances, the list is rebuilt as its rim travels."""
+    vertices, faces = plate(8, 0.01, 0.002)
+    x = [[0.004, 0.001, R - 0.05 * R]]
+    omega = 3.0
+    plane = make_sim(PhysicsSpec(dim=3, walls=True), x,
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m",
+                                 omega=omega)])
+    mesh = make_sim(MESH_SPEC, x, walls=[mesh_wall(vertices, faces, axis=(0, 0, 1),
+                                                   omega=omega)])
+    mesh.set_time_step(plane.dt)
+    for _ in range(20):
+        plane.run(500)
+        mesh.run(500)
+    assert np.abs(mesh.particles.x[0] - plane.particles.x[0]).max() < 1e-9 * R
+    assert np.abs(mesh.particles.v[0] - plane.particles.v[0]).max() < 1e-7 * omega * 0.004
+    assert np.linalg.norm(plane.particles.v[0, :2]) > 0.3 * omega * 0.004  # it was dragged
+    assert mesh.work(wall=0) == pytest.approx(plane.work(wall=0), rel=1e-6)
+    assert mesh.counters[0] > 3  # the plate's corners (14 mm out) travel the skin
+
+
+def test_a_rising_mesh_plate_carries_a_particle_as_the_translating_plane():
+    vertices, faces = plate(4, 0.005, 0.002)
+    speed = 0.05
+    spec = PhysicsSpec(dim=3, walls=True, mesh_walls=True, translating_walls=True)
+    x = [[0.0011, 0.0003, R]]
+    plane = make_sim(PhysicsSpec(dim=3, walls=True, translating_walls=True), x,
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m",
+                                 velocity=(0.0, 0.0, speed))], impact_speed=0.1)
+    mesh = make_sim(spec, x, walls=[mesh_wall(vertices, faces, velocity=(0.0, 0.0, speed))],
+                    impact_speed=0.1)
+    mesh.set_time_step(plane.dt)
+    plane.run(20000)
+    mesh.run(20000)
+    assert mesh.particles.v[0, 2] == pytest.approx(plane.particles.v[0, 2], rel=1e-9)
+    assert mesh.particles.x[0, 2] == pytest.approx(plane.particles.x[0, 2], rel=1e-9)
+    assert mesh.work(wall=0) == pytest.approx(plane.work(wall=0), rel=1e-9)
+
+
+# ---- refusals ---------------------------------------------------------------------------------
+
+def _table():
+    return MaterialTable([Material("m", RHO)], {"*": Interaction(restitution=0.5,
+                                                                 normal_stiffness=K_N)},
+                         "linear_history")
+
+
+@pytest.mark.parametrize("spec,extra,message", [
+    (PLAIN_SPEC, {}, r"walls\[0\]\.kind: mesh walls need PhysicsSpec\(mesh_walls=True\)"),
+    (MESH_SPEC, {"radius": 1.0}, r"walls\[0\]: unknown keys \['radius'\]"),
+])
+def test_mesh_walls_refused_where_they_cannot_work(spec, extra, message):
+    vertices, faces = box_mesh((-0.01, -0.01, -0.01), (0.01, 0.01, 0.0))
+    with pytest.raises(ValueError, match=message):
+        Simulation(spec, _table(), x=[[0.0, 0.0, 0.002]], radius=[R], material="m",
+                   walls=[dict(mesh_wall(vertices, faces), **extra)], gravity=G)
+
+
+def test_mesh_walls_need_3d_walls():
+    with pytest.raises(ValueError, match="mesh_walls: needs walls=True and dim=3"):
+        PhysicsSpec(dim=2, walls=True, mesh_walls=True)
