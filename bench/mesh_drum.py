@@ -60,7 +60,7 @@ def tube(radius, length, segments, rings, thickness):
         faces += [(iv(0, s), iv(0, s + 1), ov(0, s + 1)), (iv(0, s), ov(0, s + 1), ov(0, s))]
         faces += [(iv(rings, s), ov(1, s + 1), iv(rings, s + 1)),
                   (iv(rings, s), ov(1, s), ov(1, s + 1))]
-    return vertices, np.array(faces)
+    return vertices, np.array(faces)[:, ::-1].copy()  # outward normals: into the drum inside
 
 
 def run_case(args, seed, liner):
