@@ -10,7 +10,8 @@ that writes it. Files read (any may be missing; its section then says so):
 - ``scaling*.json``: bench/scaling.py (cost vs particle count and time step, peak memory);
 - ``strong_scaling*.json``: bench/strong_scaling.py (the same system on 1, 2, 4, ... cores);
 - ``ls1*.json``: bench/ls1.py (full-scale LS1 stirred mill vs seed 004 Table 3);
-- ``size_ratio*.json``: bench/size_ratio.py (multi-level grid at wide size ratios).
+- ``size_ratio*.json``: bench/size_ratio.py (multi-level grid at wide size ratios);
+- ``mesh_drum*.json``: bench/mesh_drum.py (a drum's shell as a triangle mesh vs the cylinder).
 """
 
 import argparse
@@ -346,6 +347,35 @@ def size_ratio():
     return text
 
 
+def mesh_walls():
+    """A drum whose shell is a triangle mesh against the analytic cylinder: cost and physics."""
+    text = ["## Triangle-mesh walls (a drum's shell as a mesh)", ""]
+    files = _load("mesh_drum*.json")
+    if not files:
+        return text + ["No `mesh_drum*.json` in bench/out.", ""]
+    for p, d in files:
+        rows, by_shell = [], {}
+        for r in d["rows"]:
+            by_shell.setdefault(r["shell"], []).append(r)
+        for shell, sel in by_shell.items():
+            rows.append([shell, sel[0]["n"], sel[0]["triangles"], len(sel),
+                         _g(statistics.mean(r["power_W"] * 1e3 for r in sel), 4),
+                         _g(statistics.mean(r["charge_angle_deg"] for r in sel), 4),
+                         _g(statistics.median(r["us_per_particle_step"] for r in sel)),
+                         _load_note([x for r in sel for x in _one_minute(r.get("loadavg"))])])
+        cost = {s: statistics.median(r["us_per_particle_step"] for r in sel)
+                for s, sel in by_shell.items()}
+        text += [f"`{p.name}` ({_command(d)}). Cases: bench/mesh_drum.py's docstring; physics "
+                 "comparison in docs/results/mesh_walls.md.", "",
+                 _table(["shell", "particles", "triangles", "seeds", "power [mW]",
+                         "charge angle [deg]", "us per particle-step (median)", "load (1 min)"],
+                        rows), ""]
+        if {"mesh", "cylinder"} <= set(cost):
+            text += [f"Cost of the mesh shell / the cylinder: {cost['mesh'] / cost['cylinder']:.2f}"
+                     " (issue 17 target: <= 1.5 at 10,000 spheres and ~10,000 triangles).", ""]
+    return text
+
+
 def summary():
     """A few headline numbers, each from the newest file of its kind."""
     text = ["## Summary", ""]
@@ -410,7 +440,7 @@ def main(argv=None):
             "makes largely load-independent. Timings older than the load recording say \"not "
             "recorded\".", ""]
     for section in (summary, throughput, strong_scaling, leave_out, scaling, ls1,
-                    lubrication, size_ratio):
+                    lubrication, size_ratio, mesh_walls):
         text += section()
     Path(args.out).write_text("\n".join(text).rstrip() + "\n")
     print(f"wrote {args.out}")

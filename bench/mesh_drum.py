@@ -5,7 +5,7 @@ item 2): the charge's power and angle, and the cost per particle-step.
                               [--settle 20000] [--spinup 20000] [--steps 40000] [--dt 1e-5]
                               [--threads 2] [--json FILE]
 
-The packing scene's drum (Hertz-Mindlin glass beads, r = 1 mm, drum radius 40 mm and length
+The packing scene's drum (Hertz-Mindlin beads, r = 1 mm, mu 0.3, drum radius 40 mm and length
 40 mm turning at 9.5 rad/s about y): settled, spun up, then a timed stage; the shell is either
 the analytic ``cylinder_inner`` or a closed polygonal tube (inner surface on the circle of the
 drum's radius: ``segments`` sides, cut into ``rings`` rings along the axis; ~2 x segments x rings
@@ -20,6 +20,7 @@ the radius inside the circle at mid-face: a geometric difference well below the 
 import argparse
 import json
 import math
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -66,6 +67,7 @@ def tube(radius, length, segments, rings, thickness):
 def run_case(args, seed, liner):
     values = get_scene("packing").resolve(dict(container="drum", n=args.n, seed=seed,
                                                liner=liner, settle_dt=args.dt, dt=args.dt))
+    load = os.getloadavg()
     sim = build(values)
     sim.run(args.settle, chunk=args.settle, threads=args.threads)
     sim.set_wall(0, omega=values["drum_omega"])
@@ -78,7 +80,8 @@ def run_case(args, seed, liner):
         angles.append(math.degrees(math.atan2(x[:, 0].mean(), -x[:, 2].mean())))
 
     sim.run(args.steps, chunk=1000, observer=record, threads=args.threads)
-    return dict(seed=seed, shell="mesh" if liner else "cylinder",
+    return dict(seed=seed, shell="mesh" if liner else "cylinder", n=sim.n_particles,
+                loadavg=[load, os.getloadavg()],
                 power_W=(sim.work(wall=0) - work0) / (sim.time - t0),
                 charge_angle_deg=float(np.mean(angles)),
                 us_per_particle_step=1e6 * (sim.wall_seconds - wall0) / (args.steps * sim.n_particles),
@@ -116,7 +119,8 @@ def main(argv=None):
               f"({[round(r['charge_angle_deg'], 2) for r in sel]}), "
               f"{np.median([r['us_per_particle_step'] for r in sel]):.4g} us/particle-step")
     if args.json:
-        args.json.write_text(json.dumps(dict(argv=sys.argv[1:], rows=rows), indent=1))
+        command = "python bench/mesh_drum.py " + " ".join(sys.argv[1:] if argv is None else argv)
+        args.json.write_text(json.dumps(dict(command=command, rows=rows), indent=1))
 
 
 if __name__ == "__main__":

@@ -246,3 +246,25 @@ def test_the_example_liner_runs_in_the_packing_drum_and_its_lifters_lift():
         drum_omega=5.0, skin=8e-4)))
     assert float(ds["shell_power"]) > 0.0  # the turning liner drives the charge
     assert float(ds["shell_torque"]) != 0.0
+
+
+def test_each_triangle_takes_its_own_material():
+    """A flat mesh whose top triangles are a soft material: a sphere resting on it sits at the
+    soft pair's overlap m g / k_soft, not the default material's."""
+    vertices, faces = plate(2, 0.005, 0.002)
+    top = np.array([np.allclose(vertices[f][:, 2], 0.0) for f in faces])
+    soft_k = K_N / 4.0
+    mats = [Material("m", RHO), Material("soft", RHO)]
+    table = MaterialTable(mats, {"*": Interaction(restitution=0.5, friction=0.5,
+                                                  normal_stiffness=K_N),
+                                 ("m", "soft"): Interaction(restitution=0.5, friction=0.5,
+                                                            normal_stiffness=soft_k)},
+                          "linear_history")
+    wall = mesh_wall(vertices, faces, triangle_materials=["soft" if t else "m" for t in top])
+    sim = Simulation(MESH_SPEC, table, x=[[0.001, 0.0005, R]], radius=[R], material="m",
+                     walls=[wall], gravity=G, skin=0.2 * R)
+    sim.run(40000)
+    assert R - sim.particles.x[0, 2] == pytest.approx(MASS * 9.81 / soft_k, rel=1e-6)
+    with pytest.raises(ValueError, match=r"walls\[0\]\.triangle_materials: 3 names for"):
+        Simulation(MESH_SPEC, table, x=[[0.001, 0.0005, R]], radius=[R], material="m",
+                   walls=[mesh_wall(vertices, faces, triangle_materials=["m"] * 3)], gravity=G)

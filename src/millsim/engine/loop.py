@@ -181,6 +181,18 @@ class ChunkRunner:
 
 
 
+@njit(cache=True)
+def _moved_beyond(x, x_ref, half_skin2):
+    """Whether a particle has moved more than half the skin since the list was built."""
+    for i in range(x.shape[0]):
+        d0 = x[i, 0] - x_ref[i, 0]
+        d1 = x[i, 1] - x_ref[i, 1]
+        d2 = x[i, 2] - x_ref[i, 2]
+        if d0 * d0 + d1 * d1 + d2 * d2 > half_skin2:
+            return True
+    return False
+
+
 def build_chunk_runner(spec, law, breakage=None, fluid=None):
     """Compile (or load from cache) the chunk runner.
 
@@ -264,17 +276,6 @@ class _Parts:
         if IMPLICIT:
             lub_solve, lub_finish_block = self._lub_solver(), self.lub_finish_block
 
-        def moved_beyond(x, x_ref, half_skin2):
-            for i in range(x.shape[0]):
-                d0 = x[i, 0] - x_ref[i, 0]
-                d1 = x[i, 1] - x_ref[i, 1]
-                d2 = x[i, 2] - x_ref[i, 2]
-                if d0 * d0 + d1 * d1 + d2 * d2 > half_skin2:
-                    return True
-            return False
-
-        moved_beyond = stable_identity(njit(cache=True)(moved_beyond), f"{self.key}|moved_beyond")
-
         # The steps of one neighbour list's lifetime, with the parallel loops in this function.
         # (Not inside one compiled chunk loop that also rebuilds the list: numba links every
         # callee's code into its caller's and optimises it again at each level, so a level less
@@ -329,7 +330,7 @@ class _Parts:
                 t_next = t + dt
                 for blk in prange(n_blocks):  # start the first step, bodies at t + dt
                     start_block(np.int64(blk), t_next, dt, P, B)
-                if moved_beyond(P.x, P.x_ref, half_skin2) or (
+                if _moved_beyond(P.x, P.x_ref, half_skin2) or (
                         MESHES and mesh_travel(W, t) > 0.5 * R.skin):
                     # the last chunk ended on a step that asked for a list rebuild: do it now,
                     # before any pair is evaluated (a list older than half a skin of travel can

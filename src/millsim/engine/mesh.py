@@ -66,7 +66,7 @@ def no_meshes(n, columns):
 
 def build_meshes(meshes, n_walls, n, columns, cell_size):
     """MeshArrays of the meshes ``[(wall row, vertices in the frame (V, 3), faces (F, 3),
-    material index)]``; ``cell_size`` [m]: the grid's cell (about a particle diameter plus skin).
+    material index per face (F,))]``; ``cell_size`` [m]: the grid's cell (about a particle diameter plus skin).
     """
     tris, normals, vertex_ids, walls, materials = [], [], [], [], []
     grid = np.zeros((n_walls, GRID_COLUMNS))
@@ -91,7 +91,7 @@ def build_meshes(meshes, n_walls, n, columns, cell_size):
         normals.append(normal)
         vertex_ids.append(faces + first_vertex)
         walls.append(np.full(len(faces), row, np.int64))
-        materials.append(np.full(len(faces), material, np.int64))
+        materials.append(np.asarray(material, np.int64))
         first_vertex += len(vertices)
         first_tri += len(faces)
     return MeshArrays(np.ascontiguousarray(np.concatenate(tris)), np.concatenate(normals),

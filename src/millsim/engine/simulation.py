@@ -400,15 +400,21 @@ class Simulation:
         if not self.spec.mesh_walls:
             raise ValueError(f"{key}.kind: mesh walls need PhysicsSpec(mesh_walls=True)")
         unknown = set(wall) - {"kind", "file", "scale", "vertices", "faces", "point", "axis",
-                                "omega", "velocity", "material"}
+                                "omega", "velocity", "material", "triangle_materials"}
         if unknown:
             raise ValueError(f"{key}: unknown keys {sorted(unknown)} for a mesh wall")
         vertices, faces = mesh_geometry(key, wall)
         frame = vertices - row[W_POINT]  # the frame's origin is the wall's point
         along = frame @ row[W_AXIS]
         arm = np.sqrt(np.maximum((frame**2).sum(1) - along**2, 0.0))
-        self._mesh_geometry.append((k, np.ascontiguousarray(frame), faces,
-                                    self.material_index(wall["material"])))
+        material = np.full(len(faces), self.material_index(wall["material"]), np.int64)
+        names = wall.get("triangle_materials")
+        if names is not None:  # e.g. rubber liner plates with steel lifters in one solid
+            if len(names) != len(faces):
+                raise ValueError(f"{key}.triangle_materials: {len(names)} names for "
+                                 f"{len(faces)} triangles")
+            material = np.array([self.material_index(m) for m in names], np.int64)
+        self._mesh_geometry.append((k, np.ascontiguousarray(frame), faces, material))
         return float(arm.max())
 
     def _wall_velocity(self, key, velocity):
@@ -527,6 +533,7 @@ class Simulation:
             body = np.concatenate([body, np.full(len(mats), -1)])
         boundary = [int(m) for m in self.walls[:, W_MATERIAL]] + [int(m) for m in
                                                                  p.material[p.body >= 0]]
+        boundary += [int(m) for mesh in self._mesh_geometry for m in np.unique(mesh[3])]
         extra = self.fluid.step_bounds(self._smallest_for_fluid(radius, mass, material, body)) \
             if self.fluid else ()
         return time_step_report(self.law, self.table.materials, self.pair_params, self.spec.dim,
