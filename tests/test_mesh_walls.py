@@ -268,3 +268,22 @@ def test_each_triangle_takes_its_own_material():
     with pytest.raises(ValueError, match=r"walls\[0\]\.triangle_materials: 3 names for"):
         Simulation(MESH_SPEC, table, x=[[0.001, 0.0005, R]], radius=[R], material="m",
                    walls=[mesh_wall(vertices, faces, triangle_materials=["m"] * 3)], gravity=G)
+
+
+def test_a_pour_keeps_clear_of_a_mesh_and_mesh_clearance_is_signed():
+    """Poured spheres are placed clear of a mesh wall that cuts through the pour region, and
+    mesh_clearance is the distance to the turned mesh, negative inside its solid."""
+    from millsim.engine import Pour
+
+    vertices, faces = box_mesh((-0.004, -0.004, 0.0), (0.004, 0.004, 0.006))  # a block in the way
+    sim = make_sim(MESH_SPEC, [[0.0, 0.0, 0.02]], walls=[mesh_wall(vertices, faces, omega=2.0)])
+    sim.run(1000)  # turned by 2 rad s-1 x t about z
+    c, s = math.cos(2.0 * sim.time), math.sin(2.0 * sim.time)
+    face_point = np.array([0.004 * c, 0.004 * s, 0.003]) + 0.001 * np.array([c, s, 0.0])
+    assert sim.mesh_clearance([face_point])[0] == pytest.approx(0.001, rel=1e-9)
+    assert sim.mesh_clearance([[0.0, 0.0, 0.003]])[0] == pytest.approx(-0.003, rel=1e-9)
+    pour = Pour(lo=(-0.008, -0.008, 0.0), hi=(0.008, 0.008, 0.008), count=60, rate=1e9,
+                material="m", radii=[R], seed=3, start=0.0)
+    new = pour.fill(sim)
+    assert len(new) > 10
+    assert (sim.mesh_clearance(sim.particles.x[new]) >= R).all()

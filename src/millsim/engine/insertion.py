@@ -101,7 +101,7 @@ class Pour:
         no wall is known yet to keep it clear of."""
         if self.inserted:
             raise ValueError("pour.first: the pour has started already")
-        x, r = self._place(1, np.empty((0, 3)), np.empty(0), [])
+        x, r = self._place(1, np.empty((0, 3)), np.empty(0), [], None)
         self.inserted = 1
         return x, r
 
@@ -116,9 +116,8 @@ class Pour:
         p = sim.particles
         reach = 2.0 * self._largest_radius(p) + self.gap
         near = np.all((p.x > self.lo - reach) & (p.x < self.hi + reach), axis=1)
-        # (mesh walls are not checked: the region must be clear of them, docs/walls.md)
         walls = [w for w in sim.walls if w[W_ACTIVE] != 0.0 and w[W_KIND] != MESH]
-        new_x, new_r = self._place(want, p.x[near], p.radius[near], walls)
+        new_x, new_r = self._place(want, p.x[near], p.radius[near], walls, sim.mesh_clearance)
         self.backlog = want - len(new_r)
         if not len(new_r):
             return np.arange(0)
@@ -127,9 +126,10 @@ class Pour:
         tags = {name: np.full(len(new_r), value) for name, value in self.tags.items()}
         return sim.add_particles(new_x, new_r, self.material, v=v, tags=tags)
 
-    def _place(self, want, xs, rs, walls):
-        """Up to ``want`` new (positions, radii), clear of the particles (xs, rs), of each other
-        and of the wall rows."""
+    def _place(self, want, xs, rs, walls, mesh_clearance):
+        """Up to ``want`` new (positions, radii), clear of the particles (xs, rs), of each other,
+        of the analytic wall rows and of the mesh walls (``mesh_clearance(points)``: signed
+        distances; None: no meshes)."""
         first_new = len(rs)
         for _ in range(want):
             # a drawn size is kept until it is placed, so that congestion does not bias the sizes
@@ -140,6 +140,8 @@ class Pour:
                 if len(rs) and (np.linalg.norm(xs - x, axis=1) - rs - r).min() < self.gap:
                     continue
                 if any(wall_contact_bounded(w, x[0], x[1], x[2], r + self.gap)[0] > 0.0 for w in walls):
+                    continue
+                if mesh_clearance is not None and mesh_clearance(x[None, :])[0] < r + self.gap:
                     continue
                 placed = x
                 break

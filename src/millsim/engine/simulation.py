@@ -60,6 +60,7 @@ from .mesh import (
     mesh_geometry,
     mesh_overlaps,
     no_meshes,
+    signed_clearance,
     with_mesh_candidates,
 )
 from .neighbours import rebuilt_contacts
@@ -732,6 +733,25 @@ class Simulation:
         self.walls[index, W_ACTIVE] = 1.0
         self.wall_hist[:, index, :] = 0.0
         self._forget_mesh_contacts(index)
+
+    def mesh_clearance(self, points):
+        """Per point, its distance to the nearest active mesh wall now, negative inside a mesh's
+        solid (inf without meshes): e.g. where a pour may place a particle."""
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        out = np.full(len(points), np.inf)
+        W = self._W
+        for row, *_ in self._mesh_geometry:
+            wall = self.walls[row]
+            if wall[W_ACTIVE] == 0.0:
+                continue
+            angle = wall[W_ANGLE_REF] + wall[W_OMEGA] * (self.time - wall[W_TIME_REF])
+            d = points - wall[W_ORIGIN] - wall[W_VELOCITY] * self.time
+            a, c, s = wall[W_AXIS], math.cos(angle), -math.sin(angle)  # rotated back (Rodrigues)
+            frame = d * c + np.cross(a, d) * s + np.outer(d @ a, a) * (1.0 - c)
+            mine = W.tri_wall == row
+            out = np.minimum(out, signed_clearance(W.tri[mine], W.tri_normal[mine],
+                                                   np.ascontiguousarray(frame)))
+        return out
 
     def _forget_mesh_contacts(self, index):
         hist = self._W.mesh_hist
