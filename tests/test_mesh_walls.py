@@ -287,3 +287,15 @@ def test_a_pour_keeps_clear_of_a_mesh_and_mesh_clearance_is_signed():
     new = pour.fill(sim)
     assert len(new) > 10
     assert (sim.mesh_clearance(sim.particles.x[new]) >= R).all()
+
+
+@pytest.mark.parametrize("model", ["fluid", "breakage"])
+def test_mesh_walls_refused_with_a_fluid_or_breakage(model):
+    from millsim.models import Lubrication, WeibullModel
+
+    vertices, faces = box_mesh((-0.01, -0.01, -0.01), (0.01, 0.01, 0.0))
+    kw = (dict(fluid=Lubrication(eta=0.01, h_min=0.001, h_max=0.05)) if model == "fluid"
+          else dict(breakage=WeibullModel(1e-9)))
+    with pytest.raises(ValueError, match="walls: mesh walls are dry and without breakage"):
+        Simulation(MESH_SPEC, _table(), x=[[0.0, 0.0, 0.002]], radius=[R], material="m",
+                   walls=[mesh_wall(vertices, faces)], gravity=G, **kw)
