@@ -159,7 +159,7 @@ class ChunkRunner:
             # a particle moved more than half the skin
             C = rebuilt_contacts(P, C, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
                                  self.periodic)
-            if W.tri.shape[0]:
+            if hasattr(W, "tri"):  # mesh walls (MeshWallArrays)
                 W = with_mesh_candidates(W, P, R.skin, t + step * dt)
             S.rebuild[0] = 0
             S = self._scratch(C, shared)

@@ -55,15 +55,6 @@ MAX_CELLS = 2_000_000  # per mesh; a coarser grid beyond (a huge mesh around tin
 MeshArrays = namedtuple("MeshArrays", MESH_FIELDS)
 
 
-def no_meshes(n, columns):
-    """MeshArrays of a run without meshes (length-0 arrays, never read by its loop)."""
-    return MeshArrays(np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3), np.int64),
-                      np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, GRID_COLUMNS)),
-                      np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(n + 1, np.int64),
-                      np.zeros(0, np.int64), np.zeros((0, MESH_SLOTS, columns + TAG_COLUMNS)),
-                      np.zeros(1))
-
-
 def build_meshes(meshes, n_walls, n, columns, cell_size):
     """MeshArrays of the meshes ``[(wall row, vertices in the frame (V, 3), faces (F, 3),
     material index per face (F,))]``; ``cell_size`` [m]: the grid's cell (about a particle diameter plus skin).

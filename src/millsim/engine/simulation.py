@@ -59,7 +59,6 @@ from .mesh import (
     build_meshes,
     mesh_geometry,
     mesh_overlaps,
-    no_meshes,
     signed_clearance,
     with_mesh_candidates,
 )
@@ -69,6 +68,7 @@ from .state import (
     Accumulators,
     BodyArrays,
     ContactList,
+    MeshWallArrays,
     RunSettings,
     WallArrays,
     allocate,
@@ -278,11 +278,12 @@ class Simulation:
         nb, nw = len(self.bodies), len(self.walls)
         self._B = BodyArrays(self.bodies, np.zeros(0, dtype=np.int64), np.zeros((nb, 6)),
                              np.zeros((nb, 6)), np.zeros(nb))
-        mesh = (build_meshes(self._mesh_geometry, nw, n, self.layout.wall_columns,
-                             2.0 * float(np.max(radius)) + self.skin)
-                if self._mesh_geometry else no_meshes(n, self.layout.wall_columns))
         self._W = WallArrays(self.walls, np.zeros((n, nw, self.layout.wall_columns)),
-                             np.zeros((nw, 6)), np.zeros(nw), *mesh)
+                             np.zeros((nw, 6)), np.zeros(nw))
+        if self._mesh_geometry:
+            self._W = MeshWallArrays(*self._W, *build_meshes(
+                self._mesh_geometry, nw, n, self.layout.wall_columns,
+                2.0 * float(np.max(radius)) + self.skin))
         self._refresh_members()
         for model in self._fields:
             model.attach(self)
@@ -754,8 +755,8 @@ class Simulation:
         return out
 
     def _forget_mesh_contacts(self, index):
-        hist = self._W.mesh_hist
-        if hist.shape[0]:
+        if self._mesh_geometry:
+            hist = self._W.mesh_hist
             hist[hist[:, :, self.layout.wall_columns + 3] == index + 1] = 0.0
 
     def impulse(self, *, wall=None, body=None):
@@ -795,8 +796,9 @@ class Simulation:
         relabelled = ContactList(np.cumsum(start), nj.astype(np.int32), old.state[sel],
                                  old.rev_start, old.rev_slot)
         self.particles = select_rows(self.particles, keep, n)
-        mesh_hist = self._W.mesh_hist[keep] if self._mesh_geometry else self._W.mesh_hist
-        self._W = self._W._replace(hist=self._W.hist[keep], mesh_hist=mesh_hist)
+        self._W = self._W._replace(hist=self._W.hist[keep])
+        if self._mesh_geometry:
+            self._W = self._W._replace(mesh_hist=self._W.mesh_hist[keep])
         self.tags = {name: values[keep] for name, values in self.tags.items()}
         self.particle_ids, self.parent_ids = self.particle_ids[keep], self.parent_ids[keep]
         for model in self._fields:
@@ -824,13 +826,11 @@ class Simulation:
                              f"{parents!r}")
         new = self._make_particles(x, radius, material, v, w, None)
         self.particles = append_rows(self.particles, new, n_old)
-        mesh_hist = self._W.mesh_hist
-        if self._mesh_geometry:
-            mesh_hist = np.concatenate([mesh_hist, np.zeros(
-                (m, MESH_SLOTS, self.layout.wall_columns + TAG_COLUMNS))])
         self._W = self._W._replace(hist=np.concatenate(
-            [self._W.hist, np.zeros((m, len(self.walls), self.layout.wall_columns))]),
-            mesh_hist=mesh_hist)
+            [self._W.hist, np.zeros((m, len(self.walls), self.layout.wall_columns))]))
+        if self._mesh_geometry:
+            self._W = self._W._replace(mesh_hist=np.concatenate([self._W.mesh_hist, np.zeros(
+                (m, MESH_SLOTS, self.layout.wall_columns + TAG_COLUMNS))]))
         for name in self.tags:
             self.tags[name] = np.concatenate([self.tags[name], self._tag_array(name, tags[name], m)])
         self.particle_ids = np.concatenate([self.particle_ids,
@@ -869,7 +869,8 @@ class Simulation:
         p.alpha[:] = 0.0
         p.gear[:] = 0.0
         self._W.hist[:] = 0.0
-        self._W.mesh_hist[:] = 0.0
+        if self._mesh_geometry:
+            self._W.mesh_hist[:] = 0.0
         for model in self._fields:
             model.reset_events()
         self._after_change(self.contacts)

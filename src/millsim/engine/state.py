@@ -33,11 +33,13 @@ ParticleArrays = namedtuple(
 ContactList = namedtuple("ContactList", ["start", "nbr", "state", "rev_start", "rev_slot"])
 # table: one row per wall (engine.kinematics); hist: per particle and wall, the contact state;
 # impulse: force and torque about the wall's point, integrated over time [N s, N m s]; work [J]
-# the wall has done on the particles; then the fields of engine.mesh.MeshArrays (triangles of
-# mesh walls; flat, not nested: numba's parallel loops take no tuple inside a tuple).
+# the wall has done on the particles. A run with mesh walls has MeshWallArrays: the same and the
+# fields of engine.mesh.MeshArrays (flat, not nested: numba's parallel loops take no tuple inside
+# a tuple; a separate type, so that the other runs' loop is typed and compiled as before).
 MESH_FIELDS = ["tri", "tri_normal", "tri_vertex", "tri_wall", "tri_material", "mesh_grid",
                "cell_start", "cell_tri", "cand_start", "cand_tri", "mesh_hist", "mesh_built"]
-WallArrays = namedtuple("WallArrays", ["table", "hist", "impulse", "work", *MESH_FIELDS])
+WallArrays = namedtuple("WallArrays", ["table", "hist", "impulse", "work"])
+MeshWallArrays = namedtuple("MeshWallArrays", [*WallArrays._fields, *MESH_FIELDS])
 # table: one row per body; members: its particles; load: force and torque about the body's
 # centre of the last step [N, N m]; impulse, work: integrated as for walls.
 BodyArrays = namedtuple("BodyArrays", ["table", "members", "load", "impulse", "work"])
