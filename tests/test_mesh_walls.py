@@ -165,25 +165,39 @@ def test_a_convex_edge_or_vertex_counts_once(centre_offset):
 
 # ---- moving meshes ----------------------------------------------------------------------------
 
-def test_a_turning_plate_carries_a_particle_as_the_analytic_turning_plane():
-    """A plate turning about its normal (z through the origin): a resting particle off the axis
-    is dragged along; the mesh's angle advances, the list is rebuilt as its rim travels."""
+@pytest.mark.parametrize("rotvec,origin", [
+    ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+    ((0.4, -0.7, 0.25), (0.01, -0.02, 0.005)),  # an oblique axis through another point
+])
+def test_a_turning_plate_carries_a_particle_as_the_analytic_turning_plane(rotvec, origin):
+    """A plate turning about its normal: a resting particle off the axis is dragged along; the
+    mesh's angle advances, the list is rebuilt as its rim travels; the whole scene rotated and
+    moved (gravity too) must give the same, rotated."""
+    from scipy.spatial.transform import Rotation
+
+    turn = Rotation.from_rotvec(rotvec)
+    origin = np.asarray(origin)
     vertices, faces = plate(8, 0.01, 0.002)
-    x = [[0.004, 0.001, R - 0.05 * R]]
+    vertices = turn.apply(vertices) + origin
+    x = [turn.apply([0.004, 0.001, R - 0.05 * R]) + origin]
+    axis = turn.apply([0.0, 0.0, 1.0])
+    gravity = turn.apply(G)
     omega = 3.0
-    plane = make_sim(PhysicsSpec(dim=3, walls=True), x,
-                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m",
+    plane = make_sim(PhysicsSpec(dim=3, walls=True), x, gravity=gravity,
+                     walls=[dict(kind="plane", point=origin, normal=axis, material="m",
                                  omega=omega)])
-    mesh = make_sim(MESH_SPEC, x, walls=[mesh_wall(vertices, faces, axis=(0, 0, 1),
-                                                   omega=omega)])
+    mesh = make_sim(MESH_SPEC, x, gravity=gravity,
+                    walls=[mesh_wall(vertices, faces, point=origin, axis=axis, omega=omega)])
     mesh.set_time_step(plane.dt)
     for _ in range(20):
         plane.run(500)
         mesh.run(500)
     assert np.abs(mesh.particles.x[0] - plane.particles.x[0]).max() < 1e-9 * R
     assert np.abs(mesh.particles.v[0] - plane.particles.v[0]).max() < 1e-7 * omega * 0.004
-    assert np.linalg.norm(plane.particles.v[0, :2]) > 0.3 * omega * 0.004  # it was dragged
+    in_plane = plane.particles.v[0] - (plane.particles.v[0] @ axis) * axis
+    assert np.linalg.norm(in_plane) > 0.3 * omega * 0.004  # it was dragged
     assert mesh.work(wall=0) == pytest.approx(plane.work(wall=0), rel=1e-6)
+    assert mesh.angular_impulse(wall=0) == pytest.approx(plane.angular_impulse(wall=0), rel=1e-6)
     assert mesh.counters[0] > 3  # the plate's corners (14 mm out) travel the skin
 
 
