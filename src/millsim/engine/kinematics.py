@@ -70,12 +70,19 @@ def place_walls(table, time):
             table[iw, 1 + a] = table[iw, 18 + a] + table[iw, 15 + a] * time
 
 
+@njit(inline="always", cache=True)
+def mesh_angle(wall, time):
+    """A mesh's angle about its axis at ``time`` (from the angle and time of the last change of
+    omega)."""
+    return wall[13] + wall[8] * (time - wall[14])
+
+
 @njit(cache=True)
 def place_meshes(table, time):
     """Every mesh's point and angle at ``time`` (the loop's contacts read cos and sin)."""
     for iw in range(table.shape[0]):
         if int(table[iw, 0]) == MESH:
-            th = table[iw, 13] + table[iw, 8] * (time - table[iw, 14])
+            th = mesh_angle(table[iw], time)
             table[iw, 11] = math.cos(th)
             table[iw, 12] = math.sin(th)
             for a in range(3):

@@ -35,6 +35,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .kinematics import MESH, mesh_angle
 from .state import MESH_FIELDS
 
 MESH_SLOTS = 6
@@ -62,7 +63,7 @@ def build_meshes(meshes, n_walls, n, columns, cell_size):
     tris, normals, vertex_ids, walls, materials = [], [], [], [], []
     grid = np.zeros((n_walls, GRID_COLUMNS))
     starts, cells = [np.zeros(1, np.int64)], []
-    offset, first_vertex, first_tri = 0, 0, 0
+    offset, first_vertex, first_tri, n_binned = 0, 0, 0, 0
     for row, vertices, faces, material in meshes:
         tri = vertices[faces]
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -75,8 +76,9 @@ def build_meshes(meshes, n_walls, n, columns, cell_size):
         grid[row, G_LO], grid[row, G_SIZE], grid[row, G_CELLS] = lo, size, shape
         grid[row, G_OFFSET] = offset
         start, cell_tri = _bin_triangles(tri, lo, size, shape)
-        starts.append(start[1:] + cells_total(cells))
+        starts.append(start[1:] + n_binned)
         cells.append(cell_tri + first_tri)
+        n_binned += len(cell_tri)
         offset += int(np.prod(shape))
         tris.append(tri)
         normals.append(normal)
@@ -90,10 +92,6 @@ def build_meshes(meshes, n_walls, n, columns, cell_size):
                       np.concatenate(materials), grid, np.concatenate(starts),
                       np.concatenate(cells), np.zeros(n + 1, np.int64), np.zeros(0, np.int64),
                       np.zeros((n, MESH_SLOTS, columns + TAG_COLUMNS)), np.full(1, -np.inf))
-
-
-def cells_total(cells):
-    return sum(len(c) for c in cells)
 
 
 @njit(cache=True)
@@ -130,19 +128,31 @@ def _bin_triangles(tri, lo, size, shape):
 
 
 @njit(inline="always", cache=True)
-def mesh_angle(wall, time):
-    """The mesh's angle about its axis at ``time`` (columns 13, 14: angle and time of the last
-    change of omega)."""
-    return wall[13] + wall[8] * (time - wall[14])
-
-
-@njit(inline="always", cache=True)
 def rotate(c, s, a0, a1, a2, d0, d1, d2):
     """d rotated about the unit axis a by the angle whose cosine and sine are c, s (Rodrigues)."""
     ad = (a0 * d0 + a1 * d1 + a2 * d2) * (1.0 - c)
     return (d0 * c + (a1 * d2 - a2 * d1) * s + a0 * ad,
             d1 * c + (a2 * d0 - a0 * d2) * s + a1 * ad,
             d2 * c + (a0 * d1 - a1 * d0) * s + a2 * ad)
+
+
+@njit(inline="always", cache=True)
+def to_frame(wall, time, x0, x1, x2):
+    """A world point in a mesh's frame at ``time``: taken back by its translation and angle."""
+    th = mesh_angle(wall, time)
+    return rotate(math.cos(th), -math.sin(th), wall[4], wall[5], wall[6],
+                  x0 - wall[18] - wall[15] * time, x1 - wall[19] - wall[16] * time,
+                  x2 - wall[20] - wall[17] * time)
+
+
+@njit(cache=True)
+def points_in_frame(wall, time, points):
+    """``to_frame`` of every row of ``points`` (n, 3)."""
+    out = np.empty_like(points)
+    for i in range(points.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = to_frame(wall, time, points[i, 0], points[i, 1],
+                                                   points[i, 2])
+    return out
 
 
 @njit(inline="always", cache=True)
@@ -257,6 +267,8 @@ def rebuilt_mesh_candidates(M, table, x, radius, body, margin, time):
     start = np.zeros(n + 1, np.int64)
     stamp = np.full(M.tri.shape[0], -1, np.int64)
     out = np.empty(0, np.int64)
+    lo_c = np.empty(3, np.int64)
+    hi_c = np.empty(3, np.int64)
     for fill in range(2):
         if fill:
             for i in range(n):
@@ -270,18 +282,11 @@ def rebuilt_mesh_candidates(M, table, x, radius, body, margin, time):
             reach = radius[i] + margin
             for iw in range(table.shape[0]):
                 wall = table[iw]
-                if int(wall[0]) != 4 or wall[10] == 0.0:  # not an active mesh
+                if int(wall[0]) != MESH or wall[10] == 0.0:  # not an active mesh
                     continue
-                th = mesh_angle(wall, time)
-                # frame position: rotated back by theta about the axis through p(t)
-                y0, y1, y2 = rotate(math.cos(th), -math.sin(th), wall[4], wall[5], wall[6],
-                                    x[i, 0] - wall[18] - wall[15] * time,
-                                    x[i, 1] - wall[19] - wall[16] * time,
-                                    x[i, 2] - wall[20] - wall[17] * time)
+                y0, y1, y2 = to_frame(wall, time, x[i, 0], x[i, 1], x[i, 2])
                 g = M.mesh_grid[iw]
                 size = g[3]
-                lo_c = np.empty(3, np.int64)
-                hi_c = np.empty(3, np.int64)
                 y = (y0, y1, y2)
                 outside = False
                 for a in range(3):
@@ -313,9 +318,6 @@ def rebuilt_mesh_candidates(M, table, x, radius, body, margin, time):
                                     pos += 1
             if not fill:
                 start[i + 1] = pos
-    # ascending triangle order per particle: the loop visits them (and sums forces) in that order
-    for i in range(n):
-        out[start[i]:start[i + 1]] = np.sort(out[start[i]:start[i + 1]])
     return start, out
 
 
@@ -330,12 +332,7 @@ def mesh_overlaps(M, table, x, radius, body, time):
             continue
         for k in range(M.cand_start[i], M.cand_start[i + 1]):
             t = M.cand_tri[k]
-            wall = table[M.tri_wall[t]]
-            th = mesh_angle(wall, time)
-            y0, y1, y2 = rotate(math.cos(th), -math.sin(th), wall[4], wall[5], wall[6],
-                                x[i, 0] - wall[18] - wall[15] * time,
-                                x[i, 1] - wall[19] - wall[16] * time,
-                                x[i, 2] - wall[20] - wall[17] * time)
+            y0, y1, y2 = to_frame(table[M.tri_wall[t]], time, x[i, 0], x[i, 1], x[i, 2])
             xi = triangle_contact(M, t, y0, y1, y2, radius[i])[0]
             out[i] = max(out[i], xi)
     return out
@@ -347,7 +344,7 @@ def mesh_travel(W, time):
     speed = 0.0
     for iw in range(W.table.shape[0]):
         wall = W.table[iw]
-        if int(wall[0]) == 4 and wall[10] != 0.0:
+        if int(wall[0]) == MESH and wall[10] != 0.0:
             speed = max(speed, abs(wall[8]) * wall[7]
                         + math.sqrt(wall[15] ** 2 + wall[16] ** 2 + wall[17] ** 2))
     if speed == 0.0:

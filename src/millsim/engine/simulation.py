@@ -42,6 +42,7 @@ from .kinematics import (
     W_VELOCITY,
     WALL_COLUMNS,
     WALL_KINDS,
+    mesh_angle,
     wall_contact_bounded,
 )
 from .loop import (
@@ -59,6 +60,7 @@ from .mesh import (
     build_meshes,
     mesh_geometry,
     mesh_overlaps,
+    points_in_frame,
     signed_clearance,
     with_mesh_candidates,
 )
@@ -718,7 +720,7 @@ class Simulation:
             row[W_RADIUS] = check_range(f"walls[{index}].radius", radius, 0.0, lo_open=True)
         if omega is not None:
             if row[W_KIND] == MESH:  # the angle goes on from where it is
-                row[W_ANGLE_REF] += row[W_OMEGA] * (self.time - row[W_TIME_REF])
+                row[W_ANGLE_REF] = mesh_angle(row, self.time)
                 row[W_TIME_REF] = self.time
             row[W_OMEGA] = float(omega)
 
@@ -745,13 +747,9 @@ class Simulation:
             wall = self.walls[row]
             if wall[W_ACTIVE] == 0.0:
                 continue
-            angle = wall[W_ANGLE_REF] + wall[W_OMEGA] * (self.time - wall[W_TIME_REF])
-            d = points - wall[W_ORIGIN] - wall[W_VELOCITY] * self.time
-            a, c, s = wall[W_AXIS], math.cos(angle), -math.sin(angle)  # rotated back (Rodrigues)
-            frame = d * c + np.cross(a, d) * s + np.outer(d @ a, a) * (1.0 - c)
+            frame = points_in_frame(wall, self.time, points)
             mine = W.tri_wall == row
-            out = np.minimum(out, signed_clearance(W.tri[mine], W.tri_normal[mine],
-                                                   np.ascontiguousarray(frame)))
+            out = np.minimum(out, signed_clearance(W.tri[mine], W.tri_normal[mine], frame))
         return out
 
     def _forget_mesh_contacts(self, index):
