@@ -46,6 +46,7 @@ from .implicit import (
 )
 from .integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from .kinematics import (
+    CYLINDER_OUTER,
     MESH,
     ROTATE,
     body_motion,
@@ -59,6 +60,7 @@ from .mesh import (
     FACE,
     MESH_SLOTS,
     SAME_CONTACT_COS,
+    TAG_COLUMNS,
     counted,
     mesh_travel,
     rotate,
@@ -125,10 +127,10 @@ class ChunkRunner:
     lifetime, so the Python overhead is per rebuild, not per step) and collects breakage
     decisions. ``prime``: compute the forces of the start state before the first step."""
 
-    def __init__(self, advance, collect, layout, rolling, periodic):
+    def __init__(self, advance, collect, layout, rolling, periodic, near_walls):
         self.advance, self.collect = advance, collect
         self.slot_width, self.audit, self.implicit = layout.slot_width, layout.audit, layout.implicit
-        self.rolling, self.periodic = rolling, periodic
+        self.rolling, self.periodic, self.near_walls = rolling, periodic, near_walls
 
     def __call__(self, n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
         n = P.x.shape[0]
@@ -145,7 +147,8 @@ class ChunkRunner:
             stop=np.zeros(1, dtype=np.int64), rebuild=np.zeros(1, dtype=np.int64),
             lub_rows=np.zeros((n if implicit else 0, n_walls, RW_WALL_WIDTH)),
             lub_particle=np.zeros((n if implicit else 0, LP_WIDTH)),
-            cg_part=np.zeros((n_blocks if implicit else 0, 3)))
+            cg_part=np.zeros((n_blocks if implicit else 0, 3)),
+            wall_near=np.zeros(n if self.near_walls else 0, dtype=np.int64))
         S = self._scratch(C, shared)
         step = self.advance(n_steps, 0, True, bool(prime), t, dt, step0, P, C, W, B, R, A, S, bs,
                             fp)
@@ -238,6 +241,8 @@ class _Parts:
             finish=finish))
         self.start_block = self._jit(_start_block_kernel(spec))
         self.reductions = self._jit(_reduction_kernel(spec, layout))
+        self.near_walls_block = (self._jit(_near_walls_kernel(spec)) if near_walls(spec, layout)
+                                 else None)
         if layout.implicit:  # the implicit lubrication solve (engine.implicit); else not compiled
             self.lub_blocks = tuple(self._jit(fn) for fn in lub_kernels(spec, layout, BLOCK))
             self.lub_finish_block = self._jit(_lub_finish_kernel(spec, layout, finish))
@@ -270,6 +275,8 @@ class _Parts:
         ROLLING, PERIODIC, TRANSLATING = spec.rolling_friction, spec.periodic, spec.translating_walls
         MESHES = spec.mesh_walls
         AUDIT, IMPLICIT = layout.audit, layout.implicit
+        NEAR_WALLS = near_walls(spec, layout)
+        near_walls_block = self.near_walls_block
         pair_block, particle_block = self.pair_block, self.particle_block
         start_block, reductions = self.start_block, self.reductions
         lub_solve = lub_finish_block = None
@@ -294,6 +301,9 @@ class _Parts:
             err, counters = A.err, A.counters
             stop, rebuild = S.stop, S.rebuild
             wall_part, audit_part = S.wall_part, S.audit_part
+            if NEAR_WALLS:  # the walls each particle can reach in this list's lifetime
+                for blk in prange(n_blocks):
+                    near_walls_block(np.int64(blk), P, W, R, S)
             if begin:
                 if prime:
                     # The forces of the start state (a run that starts in contact or inside a
@@ -378,7 +388,7 @@ class _Parts:
             return step
 
         advance = self._parallel(advance)
-        return ChunkRunner(advance, brk.collect, layout, ROLLING, PERIODIC)
+        return ChunkRunner(advance, brk.collect, layout, ROLLING, PERIODIC, NEAR_WALLS)
 
     def _lub_solver(self):
         """The implicit lubrication solve (engine.implicit); ``advance``'s finish pass applies it.
@@ -801,12 +811,19 @@ def _walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
     wall_apart = brk.wall_apart
     contact_with = wall_contact_bounded if spec.bounded_walls else wall_contact
     TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
+    # a constant, so that the reset of a wall's state is a few stores, not a call to memset
+    # (with the vector registers saved around it) per particle and wall
+    HIST = layout.wall_columns
+    NEAR_WALLS = near_walls(spec, layout)
 
     def walls(i, step, dt, P, W, R, err, S, blk, bs, fp, F0, F1, F2, T0, T1, T2, FS, acc):
         x, v, w = P.x, P.v, P.w
         wall_part, audit_part = S.wall_part, S.audit_part
         ri = P.radius[i]
+        near = S.wall_near[i] if NEAR_WALLS else 0
         for iw in range(W.table.shape[0]):
+            if NEAR_WALLS and iw < NEAR_BITS and not (near >> iw) & 1:
+                continue  # out of reach until the next list rebuild: apart, nothing to add
             wall = W.table[iw]
             if wall[10] == 0.0:  # disabled
                 if IMPLICIT:
@@ -847,7 +864,7 @@ def _walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
                 wp[5] -= cp0 * g1 - cp1 * g0 + c2
                 wp[6] -= pw
             if xi <= 0.0:
-                for c in range(W.hist.shape[2]):
+                for c in range(HIST):
                     W.hist[i, iw, c] = 0.0
                 wall_apart(bs, W.hist, i, iw, SPRING, xi)
                 continue
@@ -885,6 +902,7 @@ def _mesh_kernel(spec, layout, wall_force):
     matched by normal."""
     PRESSURE = spec.normal_force_sum
     TAG = layout.wall_columns
+    HIST = TAG + TAG_COLUMNS
 
     def meshes(i, step, dt, P, W, R, err, S, blk, F0, F1, F2, T0, T1, T2, FS):
         M = W
@@ -960,7 +978,7 @@ def _mesh_kernel(spec, layout, wall_force):
                            wall)
         for q in range(MESH_SLOTS):  # contacts that ended
             if not (seen >> q) & 1 and hist[q, TAG + 3] != 0.0:
-                for col in range(hist.shape[1]):
+                for col in range(HIST):
                     hist[q, col] = 0.0
         return F0, F1, F2, T0, T1, T2, FS
 
@@ -1048,6 +1066,47 @@ def _lub_finish_kernel(spec, layout, finish):
                 S.rebuild[0] = 1
 
     return lub_finish_block
+
+
+NEAR_BITS = 63  # walls with a bit in a particle's near-wall mask; walls beyond it are always visited
+
+
+def near_walls(spec, layout):
+    """Whether the loop visits only the walls near each particle (dry runs with walls). With a
+    fluid every wall is visited: its lubrication rows are rewritten each step."""
+    return spec.walls and not layout.fluid
+
+
+def _near_walls_kernel(spec):
+    """The walls each free particle of the block may touch before the next list rebuild, as a bit
+    mask: static planes and cylinders within the skin of its list position (it moves at most
+    half the skin before a rebuild, as for the pair list); every other wall (moving, bounded)
+    counts as near. Visiting only those gives the same numbers: a wall out of reach is apart
+    at every step, and its state was reset when the particle last left it."""
+    TRANSLATING = spec.translating_walls
+
+    def near_walls_block(blk, P, W, R, S):
+        x_ref, near = P.x_ref, S.wall_near
+        reach = R.skin + R.reach
+        n_walls = min(W.table.shape[0], NEAR_BITS)
+        for i in range(blk * BLOCK, min(x_ref.shape[0], (blk + 1) * BLOCK)):
+            mask = 0
+            for iw in range(n_walls):
+                wall = W.table[iw]
+                kind = int(wall[0])
+                if wall[10] == 0.0 or kind == MESH:  # disabled; meshes have their candidates
+                    continue
+                static = kind <= CYLINDER_OUTER and not (
+                    TRANSLATING and (wall[15] != 0.0 or wall[16] != 0.0 or wall[17] != 0.0))
+                if static:
+                    gap = wall_contact(wall, x_ref[i, 0], x_ref[i, 1], x_ref[i, 2],
+                                       P.radius[i] + reach)[0]
+                    if gap <= 0.0:
+                        continue
+                mask |= np.int64(1) << np.int64(iw)
+            near[i] = mask
+
+    return near_walls_block
 
 
 def _finish_kernel(spec):

@@ -49,10 +49,11 @@ RunSettings = namedtuple("RunSettings", [
 # sums of wall loads and audit powers, and the stop and rebuild flags; with implicit lubrication
 # (engine.implicit) the rows per slot and per particle and wall, each pair row's share on its
 # partner in a CG product, the per-particle loads and velocities of the solve, and its per-block
-# partial sums (length 0 otherwise).
+# partial sums (length 0 otherwise); in dry runs with walls, each particle's near-wall bit mask
+# (engine.loop.near_walls).
 Scratch = namedtuple("Scratch", ["out", "proll", "wall_part", "audit_part", "stop", "rebuild",
                                  "lub_slots", "lub_rows", "lub_partner", "lub_particle",
-                                 "cg_part"])
+                                 "cg_part", "wall_near"])
 # counters: [list rebuilds, steps, implicit-lubrication CG iterations in all, most in one step];
 # err: [guard code, step, particle, partner]; dissipation:
 # energy per audit term [J] then the last step's power per term [W]; n_events: rows used in
