@@ -272,3 +272,21 @@ def test_fast_approach_from_outside_the_skin_is_caught_by_the_list():
     sim.run(steps, chunk=steps)
     assert sim.particles.v[0, 0] == pytest.approx(-e * v, rel=0.02)
     assert sim.particles.v[1, 0] == pytest.approx(e * v, rel=0.02)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_pair_pass_ranges_cover_every_row_once_with_even_slots(seed):
+    """The pair pass splits the particles into ranges of about equal numbers of slots (a half
+    list's rows are uneven): consecutive ranges from the first row to the last, each within one
+    row's slots of total / ranges."""
+    from millsim.engine.loop import balanced_rows
+
+    rng = np.random.default_rng(seed)
+    rows = rng.integers(0, 12, 1000) * (np.arange(1000) < 700)  # long rows first, then none
+    start = np.concatenate([[0], np.cumsum(rows)]).astype(np.int64)
+    bounds = balanced_rows(start, 7)
+    assert bounds[0] == 0 and bounds[-1] == 1000
+    assert np.all(np.diff(bounds) >= 0)
+    slots = start[bounds[1:]] - start[bounds[:-1]]
+    assert slots.sum() == start[-1]
+    assert np.all(np.abs(slots - start[-1] / 7) <= rows.max())

@@ -185,6 +185,21 @@ class ChunkRunner:
 
 
 @njit(cache=True)
+def balanced_rows(start, n_ranges):
+    """Bounds of n_ranges consecutive ranges of rows of the list (CSR ``start``) holding about
+    equal numbers of slots."""
+    n = start.shape[0] - 1
+    total = start[n]
+    bounds = np.empty(n_ranges + 1, dtype=np.int64)
+    bounds[0] = 0
+    for b in range(1, n_ranges):
+        bounds[b] = max(bounds[b - 1], np.searchsorted(start, (b * total) // n_ranges,
+                                                       side="right") - 1)
+    bounds[n_ranges] = n
+    return bounds
+
+
+@njit(cache=True)
 def _moved_beyond(x, x_ref, half_skin2):
     """Whether a particle has moved more than half the skin since the list was built."""
     for i in range(x.shape[0]):
@@ -301,6 +316,10 @@ class _Parts:
             err, counters = A.err, A.counters
             stop, rebuild = S.stop, S.rebuild
             wall_part, audit_part = S.wall_part, S.audit_part
+            # The pair pass in ranges of particles with equal numbers of slots: a half list's
+            # rows are uneven (a pair sits in the row of its lower index), and a range of
+            # particles is often one region with its own density.
+            rows = balanced_rows(C.start, n_blocks)
             if NEAR_WALLS:  # the walls each particle can reach in this list's lifetime
                 for blk in prange(n_blocks):
                     near_walls_block(np.int64(blk), P, W, R, S)
@@ -310,8 +329,8 @@ class _Parts:
                     # fluid film): the first drift uses them. dt = 0 evaluates without advancing
                     # springs; the particle pass takes last = True (run-time values, not
                     # literals: a literal argument compiles another variant).
-                    for blk in prange(n_blocks):
-                        pair_block(np.int64(blk), step0, 0.0, P, C, R, err, S, bs, fp)
+                    for b in prange(n_blocks):
+                        pair_block(rows[b], rows[b + 1], step0, 0.0, P, C, R, err, S, bs, fp)
                     if TRANSLATING:
                         place_walls(W.table, t)
                     if MESHES:
@@ -350,8 +369,8 @@ class _Parts:
             warm = False  # implicit lubrication: impulses of the last step kept in the rows
             while step < n_steps:
                 step_now = step0 + step
-                for blk in prange(n_blocks):
-                    pair_block(np.int64(blk), step_now, dt, P, C, R, err, S, bs, fp)
+                for b in prange(n_blocks):
+                    pair_block(rows[b], rows[b + 1], step_now, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
                 if TRANSLATING:  # the walls where the step's forces are evaluated
                     place_walls(W.table, t + (step + 1) * dt)
@@ -520,10 +539,10 @@ def _start_block_kernel(spec):
 
 
 def _pair_block_kernel(pair_row):
-    def pair_block(blk, step, dt, P, C, R, err, S, bs, fp):
-        """Pair pass for the slots of the block's particles."""
+    def pair_block(lo, hi, step, dt, P, C, R, err, S, bs, fp):
+        """Pair pass for the slots of particles lo to hi - 1."""
         start, nbr, state, out, proll, stop = C.start, C.nbr, C.state, S.out, S.proll, S.stop
-        for i in range(blk * BLOCK, min(P.x.shape[0], (blk + 1) * BLOCK)):
+        for i in range(lo, hi):
             pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop,
                      S.lub_slots)
 
