@@ -187,7 +187,9 @@ class ChunkRunner:
 @njit(cache=True)
 def balanced_rows(start, n_ranges):
     """Bounds of n_ranges consecutive ranges of rows of the list (CSR ``start``) holding about
-    equal numbers of slots."""
+    equal numbers of slots: the threads of the pair pass get equal work, where equal numbers of
+    particles would not (a half list keeps a pair in the row of its lower index, so rows are
+    uneven, and a range of particles is often one region with its own density)."""
     n = start.shape[0] - 1
     total = start[n]
     bounds = np.empty(n_ranges + 1, dtype=np.int64)
@@ -316,10 +318,7 @@ class _Parts:
             err, counters = A.err, A.counters
             stop, rebuild = S.stop, S.rebuild
             wall_part, audit_part = S.wall_part, S.audit_part
-            # The pair pass in ranges of particles with equal numbers of slots: a half list's
-            # rows are uneven (a pair sits in the row of its lower index), and a range of
-            # particles is often one region with its own density.
-            rows = balanced_rows(C.start, n_blocks)
+            rows = balanced_rows(C.start, n_blocks)  # the pair pass's ranges of particles
             if NEAR_WALLS:  # the walls each particle can reach in this list's lifetime
                 for blk in prange(n_blocks):
                     near_walls_block(np.int64(blk), P, W, R, S)
