@@ -1,11 +1,11 @@
 """Where the step loop spends its time: a sampling profile (Linux ``perf``) of the compiled passes.
 
     python bench/profile_loop.py [--case box|drum] [--state CSV] [--seconds 12] [--src DIR]
-                                 [--json FILE]
+                                 [--threads N] [--json FILE]
 
 Runs the throughput case of ``bench/engine_throughput.py`` (the settled 10,000-sphere bed or the
 spun-up drum, from the state that script wrote, ``bench/out/millsim_<case>_state.csv``) on one
-thread, and samples it with ``perf record`` for ``--seconds`` once the loop is compiled and
+thread (``--threads``), and samples it with ``perf record`` for ``--seconds`` once the loop is compiled and
 warm. numba's JIT code has no symbols perf can read, so the child process writes
 ``/tmp/perf-<pid>.map`` (start, size, name of every function numba compiled in it) for perf to
 resolve the samples. Each pass is one compiled function: the particle pass is
@@ -13,7 +13,10 @@ resolve the samples. Each pass is one compiled function: the particle pass is
 (a ``__numba_parfor_gufunc``), so the hottest parfor function is reported as the pair pass.
 The sampling rate (2 kHz) gives about 24,000 samples in 12 s: shares to about +-0.5 %.
 ``--src``: profile another source tree (the directory holding millsim/), e.g. an older commit's
-worktree, for a profile before a change.
+worktree, for a profile before a change. ``--threads N``: run on N numba threads and count the
+samples of each part per thread as well (a thread that finishes its share of a parallel loop
+first waits in the threading library, "Python, numpy, kernel and libraries"): a pass whose
+threads hold unequal sample counts is unevenly split.
 """
 
 import argparse
@@ -93,6 +96,7 @@ def main(argv=None):
     ap.add_argument("--state", help="start state CSV (default: bench/out/millsim_<case>_state.csv)")
     ap.add_argument("--seconds", type=float, default=12.0)
     ap.add_argument("--src", default=str(HERE.parent / "src"), help="source tree to profile")
+    ap.add_argument("--threads", type=int, default=1, help="numba threads")
     ap.add_argument("--json", help="write the result here")
     args = ap.parse_args(argv)
     if shutil.which("perf") is None:
@@ -106,7 +110,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as work:
         work = Path(work)
         ready, data = work / "ready", work / "perf.data"
-        env = dict(os.environ, NUMBA_NUM_THREADS="1", NUMBA_CACHE_DIR=str(work / "cache"),
+        env = dict(os.environ, NUMBA_NUM_THREADS=str(args.threads), NUMBA_CACHE_DIR=str(work / "cache"),
                    PYTHONPATH=str(Path(args.src).resolve()))
         child = subprocess.Popen([sys.executable, "-c", CHILD, json.dumps(values), str(ready),
                                   str(args.seconds + 3.0)], env=env, stdout=subprocess.PIPE,
@@ -121,23 +125,42 @@ def main(argv=None):
         out, _ = child.communicate()
         rate = json.loads(out.strip().splitlines()[-1])
         # (perf prints symbols only beside the addresses)
-        script = subprocess.run(["perf", "script", "-i", str(data), "-F", "ip,sym"], check=True,
-                                capture_output=True, text=True).stdout
+        script = subprocess.run(["perf", "script", "-i", str(data), "-F", "tid,ip,sym"],
+                                check=True, capture_output=True, text=True).stdout
         Path(f"/tmp/perf-{pid}.map").unlink(missing_ok=True)
-    symbols = collections.Counter((line.split(None, 1)[1:] or ["[unknown]"])[0].strip()
-                                  for line in script.splitlines() if line.strip())
+    samples = collections.Counter()  # (thread id, symbol)
+    for line in script.splitlines():
+        fields = line.split(None, 2)
+        if len(fields) >= 2:
+            samples[fields[0], (fields[2:] or ["[unknown]"])[0].strip()] += 1
+    symbols = collections.Counter()
+    for (_, symbol), count in samples.items():
+        symbols[symbol] += count
     total = sum(symbols.values())
     parfor = [s for s, _ in symbols.most_common() if "parfor_gufunc" in s]
-    shares = collections.Counter()
-    for symbol, count in symbols.items():
-        shares[label(symbol, parfor[0] if parfor else None)] += count
-    rows = [{"part": part, "share": count / total} for part, count in shares.most_common()]
-    result = {"case": args.case, "src": args.src, "threads": 1, "samples": total, "seconds": args.seconds,
-              "particle_steps_per_s": rate["psps"], "n_particles": rate["n"], "parts": rows,
-              "loadavg": os.getloadavg()}
-    print(f"{args.case}: {rate['psps']:.3g} particle-steps/s on one thread, {total} samples")
+    hottest = parfor[0] if parfor else None
+    shares, per_thread = collections.Counter(), collections.defaultdict(collections.Counter)
+    for (tid, symbol), count in samples.items():
+        shares[label(symbol, hottest)] += count
+        per_thread[label(symbol, hottest)][tid] += count
+    # the main thread first (it runs the first share of each parallel loop: the lowest rows),
+    # then the threads with most samples
+    tids = sorted({tid for tid, _ in samples},
+                  key=lambda t: (t != pid, -sum(c for (u, _), c in samples.items() if u == t)))
+    tids = tids[:args.threads]
+    rows = [{"part": part, "share": count / total,
+             "samples_per_thread": [per_thread[part][t] for t in tids]}
+            for part, count in shares.most_common()]
+    result = {"case": args.case, "src": args.src, "threads": args.threads, "samples": total,
+              "seconds": args.seconds, "particle_steps_per_s": rate["psps"],
+              "n_particles": rate["n"], "parts": rows, "loadavg": os.getloadavg()}
+    print(f"{args.case}: {rate['psps']:.3g} particle-steps/s on {args.threads} thread(s), "
+          f"{total} samples" + (", samples per thread in brackets (main thread first)"
+                               if args.threads > 1 else ""))
     for row in rows:
-        print(f"  {100 * row['share']:5.1f} %  {row['part']}")
+        counts = (f"  [{', '.join(str(c) for c in row['samples_per_thread'])}]"
+                  if args.threads > 1 else "")
+        print(f"  {100 * row['share']:5.1f} %  {row['part']}{counts}")
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(result, indent=2))
