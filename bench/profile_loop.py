@@ -1,22 +1,23 @@
 """Where the step loop spends its time: a sampling profile (Linux ``perf``) of the compiled passes.
 
-    python bench/profile_loop.py [--case box|drum] [--state CSV] [--seconds 12] [--src DIR]
+    python bench/profile_loop.py [--case box|drum|ls1] [--state CSV] [--seconds 12] [--src DIR]
                                  [--threads N] [--json FILE]
 
 Runs the throughput case of ``bench/engine_throughput.py`` (the settled 10,000-sphere bed or the
-spun-up drum, from the state that script wrote, ``bench/out/millsim_<case>_state.csv``) on one
-thread (``--threads``), and samples it with ``perf record`` for ``--seconds`` once the loop is compiled and
-warm. numba's JIT code has no symbols perf can read, so the child process writes
-``/tmp/perf-<pid>.map`` (start, size, name of every function numba compiled in it) for perf to
-resolve the samples. Each pass is one compiled function: the particle pass is
-``particle_block``; the pair pass is inlined into the parallel loop of ``advance`` that calls it
-(a ``__numba_parfor_gufunc``), so the hottest parfor function is reported as the pair pass.
-The sampling rate (2 kHz) gives about 24,000 samples in 12 s: shares to about +-0.5 %.
-``--src``: profile another source tree (the directory holding millsim/), e.g. an older commit's
-worktree, for a profile before a change. ``--threads N``: run on N numba threads and count the
-samples of each part per thread as well (a thread that finishes its share of a parallel loop
-first waits in the threading library, "Python, numpy, kernel and libraries"): a pass whose
-threads hold unequal sample counts is unevenly split.
+spun-up drum, from the state that script wrote, ``bench/out/millsim_<case>_state.csv``), or
+(``--case ls1``) bench/ls1.py's implicit case (the full LS1 chamber at 1 Pa s and 2500 rpm, in
+its ramp-up), on one thread (``--threads``), and samples it with ``perf record`` for
+``--seconds`` once the loop is compiled and warm. numba's JIT code has no symbols perf can read,
+so the child process writes ``/tmp/perf-<pid>.map`` (start, size, name of every function numba
+compiled in it) for perf to resolve the samples. Each pass is one compiled function: the
+particle pass is ``particle_block``; the box's and drum's pair pass is inlined into the parallel
+loop of ``advance`` that calls it (a ``__numba_parfor_gufunc``), so the hottest parfor function
+is reported as their pair pass. The sampling rate (2 kHz) gives about 24,000 samples in 12 s:
+shares to about +-0.5 %. ``--src``: profile another source tree (the directory holding
+millsim/), e.g. an older commit's worktree, for a profile before a change. ``--threads N``: run
+on N numba threads and count the samples of each part per thread as well (a thread that
+finishes its share of a parallel loop first waits in the threading library, "Python, numpy,
+kernel and libraries"): a pass whose threads hold unequal sample counts is unevenly split.
 """
 
 import argparse
@@ -31,6 +32,10 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+# bench/ls1.py's implicit case: the full chamber at 1 Pa s, 2500 rpm, the agitator ramped up
+# over its first revolution (the window profiled is in that ramp)
+LS1 = dict(scale=1.0, slice=False, bead_diameter_min=1.8e-3, bead_diameter_max=1.8e-3, eta=1.0,
+           rpm=2500.0, seed=1, ramp_revolutions=1.0, lubrication_scheme="implicit")
 
 CHILD = r"""
 import gc, json, os, sys, time
@@ -38,12 +43,19 @@ from numba.core.codegen import CPUCodeLibrary
 from millsim.scenes import packing
 from millsim.scenes.base import get_scene
 
-values = get_scene("packing").resolve(json.loads(sys.argv[1]))
-sim = packing.build(values)
-if values["container"] == "drum":
-    sim.set_wall(0, omega=values["drum_omega"])
-sim.set_time_step(values["dt"])
-sim.run(2000, chunk=2000)  # compiled and warm
+values = json.loads(sys.argv[1])
+if "container" in values:
+    values = get_scene("packing").resolve(values)
+    sim = packing.build(values)
+    if values["container"] == "drum":
+        sim.set_wall(0, omega=values["drum_omega"])
+    sim.set_time_step(values["dt"])
+    warm, chunk = 2000, 1000
+else:  # the full LS1 (bench/ls1.py's case)
+    from millsim.scenes import stirred_mill
+    sim, _ = stirred_mill.build(get_scene("stirred_mill").resolve(values))
+    warm, chunk = 5, 5
+sim.run(warm, chunk=warm)  # compiled and warm
 
 starts = {}
 for lib in (o for o in gc.get_objects() if isinstance(o, CPUCodeLibrary)):
@@ -64,19 +76,30 @@ open(sys.argv[2], "w").write(str(os.getpid()))
 w0, s0 = sim.wall_seconds, sim.step
 deadline = time.perf_counter() + float(sys.argv[3])
 while time.perf_counter() < deadline:
-    sim.run(1000, chunk=1000)
+    sim.run(chunk, chunk=chunk)
 print(json.dumps({"n": sim.n_particles, "psps": sim.n_particles * (sim.step - s0)
                   / (sim.wall_seconds - w0)}))
 """
 
 
 def label(symbol, hottest_parfor):
+    if "_setup_kernels" in symbol or "pair_resistances" in symbol or "expm1" in symbol \
+            or "ieee754_log" in symbol:
+        return "implicit lubrication: row set-up (resistances, thetas, preconditioner)"
+    if "_product_kernels" in symbol:
+        return "implicit lubrication: CG product (partner records)"
+    if "_update_kernels" in symbol:
+        return "implicit lubrication: CG update (impulses, residual, direction)"
+    if "lub_finish" in symbol:
+        return "implicit lubrication: kick with the impulses, drift"
+    if "pair_block" in symbol:
+        return "pair pass (contacts, in advance's parallel loop)"
     if "particle_block" in symbol:
         return "particle pass (gather, walls, integrate)"
     if symbol == hottest_parfor:
         return "pair pass (contacts, in advance's parallel loop)"
     if "parfor_gufunc" in symbol:
-        return "other parallel loops (start of step, ...)"
+        return "other parallel loops (start of step; with the solve: own rows of the CG product)"
     if "build_verlet" in symbol or "neighbours" in symbol:
         return "neighbour list rebuild"
     if "reductions" in symbol:
@@ -92,7 +115,7 @@ def label(symbol, hottest_parfor):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--case", choices=("box", "drum"), default="box")
+    ap.add_argument("--case", choices=("box", "drum", "ls1"), default="box")
     ap.add_argument("--state", help="start state CSV (default: bench/out/millsim_<case>_state.csv)")
     ap.add_argument("--seconds", type=float, default=12.0)
     ap.add_argument("--src", default=str(HERE.parent / "src"), help="source tree to profile")
@@ -101,12 +124,15 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if shutil.which("perf") is None:
         ap.error("perf not found: install it (Debian: apt-get install linux-perf)")
-    state = Path(args.state or HERE / "out" / f"millsim_{args.case}_state.csv")
-    if not state.exists():
-        ap.error(f"{state}: no such state; write it with python bench/engine_throughput.py "
-                 f"--case {args.case} --cores 1")
-    values = {"container": args.case, "init_file": str(state), "dt": 1e-6, "skin": 2e-4,
-              "convention": "unclipped"}
+    if args.case == "ls1":
+        values = dict(LS1)
+    else:
+        state = Path(args.state or HERE / "out" / f"millsim_{args.case}_state.csv")
+        if not state.exists():
+            ap.error(f"{state}: no such state; write it with python bench/engine_throughput.py "
+                     f"--case {args.case} --cores 1")
+        values = {"container": args.case, "init_file": str(state), "dt": 1e-6, "skin": 2e-4,
+                  "convention": "unclipped"}
     with tempfile.TemporaryDirectory() as work:
         work = Path(work)
         ready, data = work / "ready", work / "perf.data"
@@ -138,7 +164,9 @@ def main(argv=None):
         symbols[symbol] += count
     total = sum(symbols.values())
     parfor = [s for s, _ in symbols.most_common() if "parfor_gufunc" in s]
-    hottest = parfor[0] if parfor else None
+    # the pair pass is inlined into advance's parallel loop, except where it is too large to
+    # inline (the LS1's, with its lubrication rows: then it has its own symbol)
+    hottest = parfor[0] if parfor and args.case != "ls1" else None
     shares, per_thread = collections.Counter(), collections.defaultdict(collections.Counter)
     for (tid, symbol), count in samples.items():
         shares[label(symbol, hottest)] += count
