@@ -275,78 +275,18 @@ def test_fast_approach_from_outside_the_skin_is_caught_by_the_list():
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_pair_pass_ranges_cover_every_row_once_with_even_cost(seed):
-    """The pair pass splits the particles into ranges of about equal cost (a half list's rows
-    are uneven): consecutive ranges from the first row to the last, each within one row's cost
-    of total / ranges."""
+def test_pair_pass_ranges_cover_every_row_once_with_even_slots(seed):
+    """The pair pass splits the particles into ranges of about equal numbers of slots (a half
+    list's rows are uneven): consecutive ranges from the first row to the last, each within one
+    row's slots of total / ranges."""
     from millsim.engine.loop import balanced_rows
 
     rng = np.random.default_rng(seed)
     rows = rng.integers(0, 12, 1000) * (np.arange(1000) < 700)  # long rows first, then none
-    cost = np.concatenate([[0], np.cumsum(rows)]).astype(np.int64)
-    bounds = balanced_rows(cost, 7)
+    start = np.concatenate([[0], np.cumsum(rows)]).astype(np.int64)
+    bounds = balanced_rows(start, 7)
     assert bounds[0] == 0 and bounds[-1] == 1000
     assert np.all(np.diff(bounds) >= 0)
-    shares = cost[bounds[1:]] - cost[bounds[:-1]]
-    assert shares.sum() == cost[-1]
-    assert np.all(np.abs(shares - cost[-1] / 7) <= rows.max())
-
-
-@pytest.mark.parametrize("near_masks", [True, False])
-def test_particle_pass_block_cost_counts_records_and_visited_walls(near_masks):
-    """Block cost = sum over its particles of PARTICLE_WEIGHT + own slots + REV_WEIGHT x
-    partners' slots + WALL_WEIGHT x walls visited (bits of the near-wall mask, or every wall
-    without masks; none for body particles); the last block is partial."""
-    from millsim.engine.loop import (
-        BLOCK,
-        PARTICLE_WEIGHT,
-        REV_WEIGHT,
-        WALL_WEIGHT,
-        block_costs,
-    )
-
-    rng = np.random.default_rng(3)
-    n, n_walls = 2 * BLOCK + 37, 5
-    start = np.concatenate([[0], np.cumsum(rng.integers(0, 8, n))]).astype(np.int64)
-    rev_start = np.concatenate([[0], np.cumsum(rng.integers(0, 8, n))]).astype(np.int64)
-    body = np.where(rng.random(n) < 0.1, 0, -1).astype(np.int64)
-    near = rng.integers(0, 1 << n_walls, n).astype(np.int64) if near_masks else np.zeros(0, np.int64)
-    n_blocks = 3
-    cost = block_costs(start, rev_start, body, near, n_walls, n_blocks)
-    walls = [bin(m).count("1") for m in near] if near_masks else [n_walls] * n
-    per = [PARTICLE_WEIGHT + start[i + 1] - start[i] + REV_WEIGHT * (rev_start[i + 1] - rev_start[i])
-           + (WALL_WEIGHT * walls[i] if body[i] < 0 else 0) for i in range(n)]
-    expected = [sum(per[b * BLOCK:(b + 1) * BLOCK]) for b in range(n_blocks)]
-    assert cost[0] == 0
-    assert np.array_equal(np.diff(cost), expected)
-
-
-@pytest.mark.parametrize("seed", [0, 1])
-def test_pair_cost_of_a_row_counts_its_slots_and_its_touching_pairs(seed):
-    """Row cost = slots + TOUCH_WEIGHT x pairs in contact, the contact counted from the minimum
-    image in a periodic box (a pair touching across the boundary is in contact)."""
-    from millsim.engine.loop import TOUCH_WEIGHT, pair_costs
-
-    rng = np.random.default_rng(seed)
-    n, box = 300, 0.01
-    x = rng.uniform(0.0, box, (n, 3))
-    radius = rng.uniform(2e-4, 5e-4, n)
-    box_len = np.array([box, box, 0.0])  # periodic in x and y
-    pairs = {(i, j) for i in range(n) for j in range(i + 1, n) if rng.random() < 0.05}
-    pairs.add((0, 1))
-    x[1] = x[0] + [box - 1e-4, 0.0, 0.0]  # 0 and 1 touch across the boundary in x
-    x[1, 0] -= box * (x[1, 0] >= box)
-    start = np.zeros(n + 1, dtype=np.int64)
-    for i, _ in pairs:
-        start[i + 1] += 1
-    start = np.cumsum(start)
-    order = sorted(pairs)
-    nbr = np.array([j for _, j in order], dtype=np.int64)
-    cost = pair_costs(x, radius, start, nbr, box_len)
-    expected = np.zeros(n, dtype=np.int64)
-    for i, j in order:
-        d = x[i] - x[j]
-        d[:2] -= box * np.round(d[:2] / box)
-        expected[i] += 1 + TOUCH_WEIGHT * (np.linalg.norm(d) < radius[i] + radius[j])
-    assert np.array_equal(np.diff(cost), expected)
-    assert cost[0] == 0 and np.diff(cost)[0] >= 1 + TOUCH_WEIGHT
+    slots = start[bounds[1:]] - start[bounds[:-1]]
+    assert slots.sum() == start[-1]
+    assert np.all(np.abs(slots - start[-1] / 7) <= rows.max())

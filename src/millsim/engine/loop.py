@@ -184,81 +184,21 @@ class ChunkRunner:
 
 
 
-# The pair pass's cost of a slot whose pair touches, beyond that of a slot apart (the distance
-# test, then the contact law); weights decide only which thread takes which rows, never a number.
-TOUCH_WEIGHT = 4
-
-
 @njit(cache=True)
-def pair_costs(x, radius, start, nbr, box_len):
-    """Cumulative pair-pass cost of the list's rows (CSR ``start``): one per slot and
-    TOUCH_WEIGHT more per slot whose pair touches at the list's start."""
+def balanced_rows(start, n_ranges):
+    """Bounds of n_ranges consecutive ranges of rows of the list (CSR ``start``) holding about
+    equal numbers of slots: the threads of the pair pass get equal work, where equal numbers of
+    particles would not (a half list keeps a pair in the row of its lower index, so rows are
+    uneven, and a range of particles is often one region with its own density)."""
     n = start.shape[0] - 1
-    cost = np.empty(n + 1, dtype=np.int64)
-    cost[0] = 0
-    for i in range(n):
-        row = start[i + 1] - start[i]
-        for k in range(start[i], start[i + 1]):
-            j = nbr[k]
-            d0 = min_image(x[i, 0] - x[j, 0], 0, box_len)
-            d1 = min_image(x[i, 1] - x[j, 1], 1, box_len)
-            d2 = min_image(x[i, 2] - x[j, 2], 2, box_len)
-            rsum = radius[i] + radius[j]
-            if d0 * d0 + d1 * d1 + d2 * d2 < rsum * rsum:
-                row += TOUCH_WEIGHT
-        cost[i + 1] = cost[i] + row
-    return cost
-
-
-@njit(cache=True)
-def balanced_rows(cost, n_ranges):
-    """Bounds of n_ranges consecutive ranges of rows holding about equal shares of the
-    cumulative ``cost`` (``pair_costs``): the threads of the pair pass get equal work, where
-    equal numbers of particles would not (a half list keeps a pair in the row of its lower
-    index, so rows are uneven, a range of particles is often one region with its own density,
-    and a touching pair costs more than one apart)."""
-    n = cost.shape[0] - 1
-    total = cost[n]
+    total = start[n]
     bounds = np.empty(n_ranges + 1, dtype=np.int64)
     bounds[0] = 0
     for b in range(1, n_ranges):
-        bounds[b] = max(bounds[b - 1], np.searchsorted(cost, (b * total) // n_ranges,
+        bounds[b] = max(bounds[b - 1], np.searchsorted(start, (b * total) // n_ranges,
                                                        side="right") - 1)
     bounds[n_ranges] = n
     return bounds
-
-
-# The particle pass's cost of a particle (integration, loop), of a partner's slot record it
-# gathers (scattered in memory) and of a wall it visits, in units of one of its own slot records
-# (read in sequence); like TOUCH_WEIGHT they only place work on threads.
-PARTICLE_WEIGHT, REV_WEIGHT, WALL_WEIGHT = 8, 10, 8
-
-
-@njit(cache=True)
-def block_costs(start, rev_start, body, wall_near, n_walls, n_blocks):
-    """Cumulative particle-pass cost of the fixed blocks: per particle PARTICLE_WEIGHT, one per
-    own slot record it gathers, REV_WEIGHT per partner's, and WALL_WEIGHT per wall it visits (its
-    near walls, or all n_walls without near-wall masks; none for a body particle)."""
-    n = start.shape[0] - 1
-    cost = np.empty(n_blocks + 1, dtype=np.int64)
-    cost[0] = 0
-    for blk in range(n_blocks):
-        c = 0
-        for i in range(blk * BLOCK, min(n, (blk + 1) * BLOCK)):
-            c += (PARTICLE_WEIGHT + start[i + 1] - start[i]
-                  + REV_WEIGHT * (rev_start[i + 1] - rev_start[i]))
-            if body[i] >= 0:
-                continue
-            walls = n_walls
-            if wall_near.shape[0] > 0:
-                walls = max(n_walls - NEAR_BITS, 0)
-                mask = wall_near[i]
-                while mask != 0:
-                    mask &= mask - 1
-                    walls += 1
-            c += WALL_WEIGHT * walls
-        cost[blk + 1] = cost[blk] + c
-    return cost
 
 
 @njit(cache=True)
@@ -350,7 +290,7 @@ class _Parts:
 
     def _runner(self, spec, brk, layout):
         ROLLING, PERIODIC, TRANSLATING = spec.rolling_friction, spec.periodic, spec.translating_walls
-        MESHES, WALLS = spec.mesh_walls, spec.walls
+        MESHES = spec.mesh_walls
         AUDIT, IMPLICIT = layout.audit, layout.implicit
         NEAR_WALLS = near_walls(spec, layout)
         near_walls_block = self.near_walls_block
@@ -378,16 +318,10 @@ class _Parts:
             err, counters = A.err, A.counters
             stop, rebuild = S.stop, S.rebuild
             wall_part, audit_part = S.wall_part, S.audit_part
-            # the pair pass's ranges of particles
-            rows = balanced_rows(pair_costs(P.x, P.radius, C.start, C.nbr, R.box_len), n_blocks)
+            rows = balanced_rows(C.start, n_blocks)  # the pair pass's ranges of particles
             if NEAR_WALLS:  # the walls each particle can reach in this list's lifetime
                 for blk in prange(n_blocks):
                     near_walls_block(np.int64(blk), P, W, R, S)
-            # the particle pass's ranges of blocks (fixed blocks: the threads take consecutive
-            # blocks of about equal cost; near walls make particles' costs uneven)
-            blocks = balanced_rows(block_costs(C.start, C.rev_start, P.body, S.wall_near,
-                                               W.table.shape[0] if WALLS else 0, n_blocks),
-                                   n_blocks)
             if begin:
                 if prime:
                     # The forces of the start state (a run that starts in contact or inside a
@@ -443,10 +377,9 @@ class _Parts:
                     place_meshes(W.table, t + (step + 1) * dt)
                     if mesh_travel(W, t + (step + 1) * dt) > 0.5 * R.skin:
                         rebuild[0] = 1  # the mesh's triangles near each particle are due
-                for b in prange(n_blocks):
-                    for blk in range(blocks[b], blocks[b + 1]):
-                        particle_block(blk, step, last, t, dt, P, C, W, B, R, err, S, bs, fp,
-                                       half_skin2)
+                for blk in prange(n_blocks):
+                    particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs,
+                                   fp, half_skin2)
                 if IMPLICIT:
                     # the kick needs the lubrication impulses first; a breakage decision of the
                     # particle pass is known here, so that step ends without the drift
