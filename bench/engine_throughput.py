@@ -1,7 +1,7 @@
 """Engine throughput: the same settled bed (or rotating drum) in millsim and in LIGGGHTS 3.8.
 
     python bench/engine_throughput.py --case box|drum --cores N [--json FILE] [--quick]
-                                      [--prep-from DIR]
+                                      [--prep-from DIR] [--no-liggghts] [--no-start-times]
 
 Case (shared/reference/peers.md part B): 10,000 spheres r = 1 mm, rho = 2500 kg/m3, Hertz-Mindlin
 with tangential history, E = 5 MPa, nu = 0.3, COR 0.5, mu 0.3, gravity; box 44 x 44 mm, or drum
@@ -13,6 +13,10 @@ compiled chunks, excluding start-up), both on the same number of cores in the sa
 same start with the cache filled. Both are whole-process wall times. LIGGGHTS runs on N MPI ranks
 (``mpirun -np N``), millsim on N numba threads; ``--prep-from`` takes LIGGGHTS' prepared state
 from another run's directory, so that every core count starts from the same bed.
+``--no-liggghts``: millsim alone, from the state an earlier run left in
+``<workdir>/millsim_<case>_state.csv`` (a machine without LIGGGHTS: the other code's row is then
+missing, not estimated). ``--no-start-times``: skip the two untimed start-up measurements (each
+a whole process; a scaling study that times only the loop needs neither).
 """
 
 import argparse
@@ -70,7 +74,9 @@ def to_millsim_frame(src, dst, case):
 
 
 def run_millsim(values, steps, cores, cache_dir):
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(cores), NUMBA_CACHE_DIR=str(cache_dir))
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(cores))
+    if cache_dir is not None:  # else millsim's own kernel cache (XDG_CACHE_HOME)
+        env["NUMBA_CACHE_DIR"] = str(cache_dir)
     t0 = time.perf_counter()
     out = subprocess.run([sys.executable, "-c", MILLSIM_RUN, json.dumps(values), str(steps)], env=env,
                          capture_output=True, text=True)
@@ -90,6 +96,10 @@ def main(argv=None):
     ap.add_argument("--json", help="write the result here")
     ap.add_argument("--quick", action="store_true", help="shorter LIGGGHTS settling/spin-up (drum)")
     ap.add_argument("--workdir", default=str(HERE / "out"))
+    ap.add_argument("--liggghts", action=argparse.BooleanOptionalAction, default=True,
+                    help="run LIGGGHTS beside millsim (default on)")
+    ap.add_argument("--start-times", action=argparse.BooleanOptionalAction, default=True,
+                    help="measure the cold (compile) and cached start of millsim (default on)")
     args = ap.parse_args(argv)
     cpus = os.cpu_count() or 1
     if not 1 <= args.cores <= cpus:
@@ -97,24 +107,34 @@ def main(argv=None):
 
     load0 = os.getloadavg()
     work = Path(args.workdir)
-    lig = liggghts.run_liggghts(args.case, args.cores, work / "liggghts" / f"{args.case}_{args.cores}",
-                                quick=args.quick, prep_from=args.prep_from)
-    state = lig["spun_state_path"] if args.case == "drum" else lig["settled_state_path"]
     mine = work / f"millsim_{args.case}_state.csv"
-    to_millsim_frame(state, mine, args.case)
+    if args.liggghts:
+        lig = liggghts.run_liggghts(args.case, args.cores, work / "liggghts" / f"{args.case}_{args.cores}",
+                                    quick=args.quick, prep_from=args.prep_from)
+        state = lig["spun_state_path"] if args.case == "drum" else lig["settled_state_path"]
+        to_millsim_frame(state, mine, args.case)
+    elif not mine.exists():
+        ap.error(f"--no-liggghts needs the state of an earlier run: {mine} is missing")
+    else:
+        lig = dict.fromkeys(("liggghts_psps", "loop_time_s", "liggghts_version", "binary"))
     # LIGGGHTS' default end of contact (limitForce off): the same force law in both codes
     values = {"container": args.case, "init_file": str(mine), "dt": 1e-6, "skin": 2e-4,
               "convention": "unclipped"}
 
-    with tempfile.TemporaryDirectory() as cache:
-        cold = run_millsim(values, 0, args.cores, cache)
-        warm = run_millsim(values, 0, args.cores, cache)
-        timed = run_millsim(values, args.steps, args.cores, cache)
+    if args.start_times:  # an empty kernel cache, then the same start with it filled
+        with tempfile.TemporaryDirectory() as cache:
+            cold = run_millsim(values, 0, args.cores, cache)
+            warm = run_millsim(values, 0, args.cores, cache)
+            timed = run_millsim(values, args.steps, args.cores, cache)
+    else:
+        cold = warm = {}
+        timed = run_millsim(values, args.steps, args.cores, None)
     psps = timed["n"] * args.steps / timed["loop_s"]
     result = {
         "case": args.case, "cores": args.cores, "steps": args.steps, "n_particles": timed["n"],
-        "millsim_psps": psps, "liggghts_psps": lig["liggghts_psps"], "ratio": psps / lig["liggghts_psps"],
-        "compile_s": cold["process_s"], "cached_start_s": warm["process_s"],
+        "millsim_psps": psps, "liggghts_psps": lig["liggghts_psps"],
+        "ratio": psps / lig["liggghts_psps"] if lig["liggghts_psps"] else None,
+        "compile_s": cold.get("process_s"), "cached_start_s": warm.get("process_s"),
         "millsim_loop_s": timed["loop_s"], "liggghts_loop_s": lig["loop_time_s"],
         "millsim_threads": timed["threads"], "millsim_contacts_per_particle": timed["contacts_per_particle"],
         "millsim_list_rebuilds": timed["list_rebuilds"], "liggghts_version": lig["liggghts_version"],
@@ -123,9 +143,11 @@ def main(argv=None):
     }
     print(f"{'engine':10s} {'cores':>5s} {'particle-steps/s':>17s} {'loop s':>8s}")
     print(f"{'millsim':10s} {args.cores:5d} {psps:17.3g} {timed['loop_s']:8.1f}")
-    print(f"{'LIGGGHTS':10s} {args.cores:5d} {lig['liggghts_psps']:17.3g} {lig['loop_time_s']:8.1f}")
-    print(f"ratio millsim/LIGGGHTS = {result['ratio']:.2f}; compile {result['compile_s']:.1f} s, "
-          f"cached start {result['cached_start_s']:.1f} s")
+    if args.liggghts:
+        print(f"{'LIGGGHTS':10s} {args.cores:5d} {lig['liggghts_psps']:17.3g} {lig['loop_time_s']:8.1f}")
+        print(f"ratio millsim/LIGGGHTS = {result['ratio']:.2f}")
+    if args.start_times:
+        print(f"compile {result['compile_s']:.1f} s, cached start {result['cached_start_s']:.1f} s")
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(result, indent=2))

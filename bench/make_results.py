@@ -411,16 +411,38 @@ def strong_scaling():
     if not files:
         return text + ["No `strong_scaling*.json` in bench/out.", ""]
     for p, d in files:
-        text += [f"`{p.name}` ({_command(d)}); machine: {d['cpu_count']} logical CPUs. Efficiency = "
-                 "rate(N) / (N rate(1)) against the one-core row of the same run; load = 1-minute "
-                 "load average before-after the row (above the idle cores: the row competed with "
-                 "other work).", ""]
-        rows = [[r["physics"], r["n_particles"], r["cores"], r["cpu_count"], _g(r["rate"]),
-                 f"{r['speedup']:.2f}" if "speedup" in r else "-",
-                 f"{r['efficiency']:.0%}" if "efficiency" in r else "-",
-                 _load_note(_one_minute(r.get("loadavg")))] for r in d["rows"]]
-        text += [_table(["physics", "particles", "cores", "machine CPUs", "particle-steps/s",
-                         "speed-up", "efficiency", "load (1 min)"], rows), ""]
+        m = d.get("machine")
+        where = (f"{m['cpu_model']}, {m['logical_cpus']} logical CPUs, numba {m['numba']}"
+                 + (f" ({m['note']})" if m.get("note") else "")) if m else f"{d['cpu_count']} logical CPUs"
+        text += [f"`{p.name}` ({_command(d)}); machine: {where}. Efficiency = rate(N) / (N rate(1)) "
+                 "against the one-core row of the same run; rebuilds = the list rebuilds' share of "
+                 "the timed loop; load = 1-minute load average before-after the row (above the idle "
+                 "cores: the row competed with other work). Rows \"K at once\": K one-thread "
+                 "processes running together: the median rate of one process (smallest-largest), "
+                 "and against the one-core row.", ""]
+        rows, together = [], {}
+        for r in d["rows"]:
+            if r.get("concurrent"):
+                together.setdefault(r["physics"], []).append(r)
+                continue
+            loop = (r.get("s_per_step") or 0) * (r.get("steps") or 0)
+            share = f"{r['rebuild_s'] / loop:.0%}" if loop and r.get("rebuild_s") is not None else "-"
+            rows.append([r["physics"], r["n_particles"], r["cores"], _g(r["rate"]),
+                         f"{r['speedup']:.2f}" if "speedup" in r else "-",
+                         f"{r['efficiency']:.0%}" if "efficiency" in r else "-", share,
+                         _load_note(_one_minute(r.get("loadavg")))])
+        for physics, group in together.items():  # one row: median (min-max) of the processes
+            rates = sorted(r["rate"] for r in group if r.get("rate"))
+            effs = sorted(r["efficiency"] for r in group if "efficiency" in r)
+            if not rates:
+                continue
+            loads = [x for r in group for x in (_one_minute(r.get("loadavg")) or [])]
+            rows.append([physics, group[0]["n_particles"], f"1 ({group[0]['concurrent']} at once)",
+                         f"{_g(statistics.median(rates))} ({_g(rates[0])}-{_g(rates[-1])})", "-",
+                         f"{statistics.median(effs):.0%} ({effs[0]:.0%}-{effs[-1]:.0%})" if effs else "-",
+                         "-", _load_note(loads)])
+        text += [_table(["physics", "particles", "cores", "particle-steps/s", "speed-up",
+                         "efficiency", "rebuilds", "load (1 min)"], rows), ""]
     return text
 
 

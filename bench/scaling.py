@@ -28,7 +28,8 @@ Every case runs in its own process with ``--threads`` numba threads (systems bel
 particles run on one, as the engine does): build, 50 warm-up steps (loading the compiled loop),
 then ``--steps`` timed steps (the compiled chunks only). Reported: seconds per step, wall seconds
 per simulated second (per step / dt), particle-steps per second, contacts and listed pairs per
-particle, list rebuilds, peak memory (``ru_maxrss`` of the child) and os.getloadavg() before and
+particle, list rebuilds and the seconds they took (``rebuild_s``, inside the timed loop), the
+threading layer, peak memory (``ru_maxrss`` of the child) and os.getloadavg() before and
 after. "vs time step": at n = 10,000 each physics again at --dt-factors x its step, and the beads
 at the --etas viscosities (their step follows the lubrication bound).
 """
@@ -164,6 +165,20 @@ def child(physics, n, steps, dt_factor, threads, eta, rpm):
 
     import numba
 
+    from millsim.engine import loop as engine_loop
+
+    # the list rebuilds' share of the loop (they run between the compiled step passes; their
+    # serial parts cap the speed-up): the rebuild the chunk runner calls, timed around each call
+    rebuild_s = [0.0]
+    untimed_rebuild = engine_loop.rebuilt_contacts
+
+    def timed_rebuild(*args):
+        t = time.perf_counter()
+        contacts = untimed_rebuild(*args)
+        rebuild_s[0] += time.perf_counter() - t
+        return contacts
+
+    engine_loop.rebuilt_contacts = timed_rebuild
     load0 = os.getloadavg()
     numba.set_num_threads(threads)
     t0 = time.perf_counter()
@@ -175,6 +190,7 @@ def child(physics, n, steps, dt_factor, threads, eta, rpm):
 
     sim.run(50, chunk=50, threads=threads, on_events=drop_events)
     loop0, rebuilds0 = sim.wall_seconds, int(sim.counters[0])
+    rebuild_s[0] = 0.0
     sim.run(steps, chunk=steps, threads=threads, on_events=drop_events)
     loop_s = sim.wall_seconds - loop0
     i, _, _ = sim.contact_pairs()
@@ -185,20 +201,32 @@ def child(physics, n, steps, dt_factor, threads, eta, rpm):
                 particle_steps_per_s=sim.n_particles * steps / loop_s,
                 contacts_per_particle=2 * len(i) / sim.n_particles,
                 listed_pairs_per_particle=2 * len(sim.contacts.nbr) / sim.n_particles,
-                list_rebuilds=int(sim.counters[0]) - rebuilds0,
+                list_rebuilds=int(sim.counters[0]) - rebuilds0, rebuild_s=rebuild_s[0],
+                threading_layer=numba.threading_layer(),
                 max_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                 loadavg=[load0, os.getloadavg()], finite=bool((abs(sim.particles.v) < 1e30).all()))
 
 
-def measure(physics, n, steps, dt_factor, threads, eta, rpm):
+def start(physics, n, steps, dt_factor, threads, eta, rpm):
+    """The child process of one case, started (subprocess.Popen); ``result`` reads it."""
     env = dict(os.environ, NUMBA_NUM_THREADS=str(max(threads, 1)))
     cmd = [sys.executable, __file__, "--child", physics, str(n), str(steps), str(dt_factor),
            str(threads), str(eta), str(rpm)]
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    if out.returncode:
-        return dict(physics=physics, n=n, dt_factor=dt_factor, eta=eta, rpm=rpm, failed=True,
-                    error=out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "?")
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    proc.case = dict(physics=physics, n=n, dt_factor=dt_factor, eta=eta, rpm=rpm)
+    return proc
+
+
+def result(proc):
+    out, err = proc.communicate()
+    if proc.returncode:
+        return dict(proc.case, failed=True,
+                    error=err.strip().splitlines()[-1] if err.strip() else "?")
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def measure(physics, n, steps, dt_factor, threads, eta, rpm):
+    return result(start(physics, n, steps, dt_factor, threads, eta, rpm))
 
 
 def main(argv=None):
