@@ -50,7 +50,7 @@ PHYSICS = ("ballmill2d", "hertz_tavares", "beads_lubrication")
 
 # ---- builders (run in the child) -----------------------------------------------------------------
 
-def build_ballmill2d(n, dt_factor, eta, rpm):
+def build_ballmill2d(n, dt_factor, eta, rpm, skin_factor=1.0):
     from dataclasses import replace
 
     import numpy as np
@@ -83,7 +83,7 @@ def build_ballmill2d(n, dt_factor, eta, rpm):
     body = np.concatenate([p.body[wall], np.full(len(xy), -1)])
     sim = Simulation(scene.spec, scene.table, x=x, radius=radius, material="grain", body=body,
                      bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(0, 0, 1), rate=-omega)],
-                     gravity=scene.gravity, thickness=scene.thickness, skin=scene.skin,
+                     gravity=scene.gravity, thickness=scene.thickness, skin=scene.skin * skin_factor,
                      step=replace(scene.policy, dt=scene.dt * dt_factor),
                      guards=Guards(max_overlap=0.5),
                      breakage=WeibullModel(values["weibull_c"]))  # c = 1e-30: nothing breaks
