@@ -17,6 +17,7 @@ from scipy.integrate import solve_ivp
 from millsim.analysis.stirred_mill import (
     calibrate_friction,
     calibrate_viscosity,
+    pool_replicates,
     predict,
     read_reference,
 )
@@ -268,6 +269,63 @@ def test_calibration_recovers_known_parameters(tmp_path):
         read_reference(bad)
 
 
+def _replicates(powers, cis, friction=0.3, eta=0.0, rpm=2500.0):
+    return pd.DataFrame([dict(friction=friction, eta=eta, rpm=rpm, seed=k + 1, net_power=p,
+                              net_power_ci=c, energy_balance_error=0.001 * (k + 1), case=f"c{k}.nc")
+                         for k, (p, c) in enumerate(zip(powers, cis))])
+
+
+def test_replicates_pool_to_their_weighted_mean_and_scatter():
+    """Weighted mean; the block intervals where the replicates agree with them, else their
+    scatter with Student's t (values worked out by hand, t from the table)."""
+    # three replicates 1 W apart with block intervals of 0.1 W: the scatter decides; with equal
+    # weights t_0.975,2 s / sqrt(3), s = 1 W, t_0.975,2 = 4.302653 (Student's table)
+    row = pool_replicates(_replicates([9.0, 10.0, 11.0], [0.1, 0.1, 0.1])).iloc[0]
+    assert row["net_power"] == pytest.approx(10.0)
+    assert row["net_power_ci"] == pytest.approx(4.302653 / math.sqrt(3), rel=1e-6)
+    assert row["replicates"] == 3 and row["seeds"] == "1;2;3" and row["case"] == "c0.nc;c1.nc;c2.nc"
+    assert row["energy_balance_error"] == pytest.approx(0.003)
+    # equal powers: the block intervals combined, 0.3 x 0.4 / 0.5 = 0.24
+    row = pool_replicates(_replicates([10.0, 10.0], [0.3, 0.4])).iloc[0]
+    assert row["net_power_ci"] == pytest.approx(0.24)
+    # unequal intervals weigh the mean: (4 / 0.1^2 + 6 / 0.2^2) / (1 / 0.1^2 + 1 / 0.2^2) = 4.4
+    assert pool_replicates(_replicates([4.0, 6.0], [0.1, 0.2]))["net_power"].iloc[0] == pytest.approx(4.4)
+    # one replicate: the case itself
+    row = pool_replicates(_replicates([7.0], [0.2])).iloc[0]
+    assert (row["net_power"], row["net_power_ci"], row["replicates"]) == (7.0, 0.2, 1)
+    # points stay apart and share the scale: here the second point's two replicates agree
+    # within their intervals, the first's do not (chi^2 = 2 x 0.5^2 x (1.96 / 0.1)^2, dof 1)
+    two = pd.concat([_replicates([1.0, 2.0], [0.1, 0.1]), _replicates([5.0, 5.0], [0.1, 0.1], rpm=3500.0)])
+    pooled = pool_replicates(two)
+    assert pooled["rpm"].tolist() == [2500.0, 3500.0]
+    scale = math.sqrt(2 * 0.25 * (1.96 / 0.1) ** 2 / 2)
+    assert pooled["replicate_scale"].iloc[0] == pytest.approx(scale)
+    assert pooled["net_power_ci"].iloc[1] == pytest.approx(4.302653 * scale * 0.1 / 1.96 / math.sqrt(2),
+                                                           rel=1e-6)
+    with pytest.raises(ValueError, match="seed 1 given twice"):
+        pool_replicates(pd.concat([_replicates([1.0], [0.1]), _replicates([2.0], [0.1])]))
+    with pytest.raises(ValueError, match="net_power_ci must be > 0"):
+        pool_replicates(_replicates([1.0, 2.0], [0.1, 0.0]))
+
+
+@pytest.mark.parametrize("understated", [3.0, 1.0])
+def test_replicate_interval_covers_the_true_power(understated):
+    """Three normal replicates around a known power whose block intervals are too small by a
+    factor (3) or right (1): the pooled 95 % half-width covers the truth in 95 % of trials
+    (exactly, by Student's t, when the scatter decides) or more (the block intervals are then a
+    floor). 2,000 trials: binomial(2000, 0.95) lies within 0.934-0.966 with 99.9 % confidence."""
+    rng = np.random.default_rng(11)
+    trials, truth, block = 2000, 50.0, 0.2
+    sigma = understated * block / 1.96
+    covered = 0
+    for _ in range(trials):
+        row = pool_replicates(_replicates(truth + sigma * rng.standard_normal(3), [block] * 3)).iloc[0]
+        covered += abs(row["net_power"] - truth) <= row["net_power_ci"]
+    assert covered / trials >= 0.934
+    if understated > 1.0:
+        assert covered / trials <= 0.966
+
+
 # ------------------------------------------------------------------------------------------------
 # the pipeline: the stirred-mill rules resolve, and bad input stops it before any job
 # ------------------------------------------------------------------------------------------------
@@ -319,6 +377,9 @@ def test_pipeline_resolves_the_stirred_mill_rules(tmp_path, monkeypatch):
     ("parameters", "h_min", 0.06, "h_min"),  # >= h_max = 0.05: the scene's check, still before any job
     ("parameters", "lubrication_scheme", "crank", "lubrication_scheme"),
     ("parameters", "lubrication_tolerance", 0, "lubrication_tolerance"),
+    ("calibration", "seeds", [1, 1], "seeds"),
+    ("calibration", "seeds", [-1, 2], "seeds"),
+    ("parameters", "seed", [1, 2], "seed"),
 ])
 def test_pipeline_refuses_bad_stirred_input_before_any_job(tmp_path, monkeypatch, block, key, value,
                                                            named):

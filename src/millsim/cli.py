@@ -262,10 +262,12 @@ def cmd_stirred_viscosity(args):
     for key, out in (("--table", args.table), ("--choice", args.choice)):
         _check_out(out, inputs, key=key)
     friction = _read_json(args.friction, "friction")["friction"]
-    table, choice = sm.calibrate_viscosity(sm.case_table(args.cases),
-                                           sm.read_reference(args.reference), friction, args.rpm)
+    cases = sm.case_table(args.cases)
+    table, choice = sm.calibrate_viscosity(cases, sm.read_reference(args.reference), friction,
+                                           args.rpm)
     _write_csv(args.table, table)
-    _write_json(args.choice, dict(friction=friction, rpm=args.rpm, fluids=choice))
+    _write_json(args.choice, dict(friction=friction, rpm=args.rpm, fluids=choice,
+                                  replicates=sm.replicate_summary(cases)))
     for fluid, c in choice.items():
         print(f"stage 2: {fluid}: eta_sim = {c['eta_sim']:g} Pa s "
               f"(refined {c['eta_sim_refined']:.4g})")

@@ -22,10 +22,35 @@ def _union(*lists):
     return sorted(out)
 
 
+def _calibration_seeds(stirred):
+    """The random seeds of every calibration case (replicates), checked: a non-empty list of
+    distinct integers >= 0; default: the parameters' one seed."""
+    base = stirred["parameters"].get("seed", 1)
+    if isinstance(base, list):
+        raise ValueError(
+            "config stirred_mill: parameters: seed: one seed (the power study's); replicate "
+            "seeds of the calibration go in calibration: seeds"
+        )
+    seeds = stirred["calibration"].get("seeds", [base])
+    if (
+        not isinstance(seeds, list)
+        or not seeds
+        or any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds)
+        or len(set(seeds)) != len(seeds)
+    ):
+        raise ValueError(
+            f"config stirred_mill: calibration: seeds: {seeds!r}: give a list of distinct "
+            "integers >= 0 (one per replicate)"
+        )
+    return base, seeds
+
+
 if STIRRED:
     _SP, _CAL = STIRRED["power"], STIRRED["calibration"]
+    _SEED, _CAL_SEEDS = _calibration_seeds(STIRRED)
+    _ALL_SEEDS = sorted({_SEED, *_CAL_SEEDS})
     # one space of cases holds the power study and every calibration stage, so that shared
-    # (friction, eta, rpm) points are simulated once
+    # (friction, eta, rpm, seed) points are simulated once
     STUDIES["stirred_mill"] = make_study(
         "stirred_mill",
         "stirred_mill",
@@ -34,45 +59,59 @@ if STIRRED:
             "friction": _union(_SP["friction"], _CAL["friction"]),
             "eta": _union(_SP["eta"], 0.0, _CAL["eta"]),
             "rpm": _union(_SP["rpm"], _CAL["rpm"], _CAL["eta_rpm"]),
+            "seed": _ALL_SEEDS if len(_ALL_SEEDS) > 1 else _SEED,
         },
         ["friction", "eta", "rpm"],
     )
     STIRRED_REFERENCE = _CAL["reference"]
 
 
-def stirred_case(friction, eta, rpm):
-    """Case file of the point (friction, eta, rpm) of the stirred-mill space."""
+def stirred_case(friction, eta, rpm, seed=None):
+    """Case file of the point (friction, eta, rpm) with random ``seed`` (default: the power
+    study's) of the stirred-mill space."""
     space = STUDIES["stirred_mill"].space
     df = space.dataframe
+    seed = _SEED if seed is None else seed
     for pattern, row in zip(space.instance_patterns, df.itertuples(index=False)):
         if (
             np.isclose(row.friction, friction)
             and np.isclose(row.eta, eta)
             and np.isclose(row.rpm, rpm)
+            and ("seed" not in df.columns or int(row.seed) == seed)
         ):
             return f"results/cases/stirred_mill/{pattern}/case.nc"
-    raise ValueError(f"stirred_mill: ({friction}, {eta}, {rpm}) is not in the case space")
+    raise ValueError(
+        f"stirred_mill: ({friction}, {eta}, {rpm}, seed {seed}) is not in the case space"
+    )
 
 
 def stirred_power_cases():
     return [stirred_case(_SP["friction"], e, r) for e in _SP["eta"] for r in _SP["rpm"]]
 
 
+# Calibration cases: every point once per replicate seed (the analysis pools them).
 def stirred_stage1_cases():
-    return [stirred_case(mu, 0.0, r) for mu in _CAL["friction"] for r in _CAL["rpm"]]
+    return [
+        stirred_case(mu, 0.0, r, s)
+        for mu in _CAL["friction"]
+        for r in _CAL["rpm"]
+        for s in _CAL_SEEDS
+    ]
 
 
 def stirred_stage2_cases(wildcards):
     choice = checkpoints.stirred_mill_friction.get().output.choice
     mu = json.load(open(choice))["friction"]
-    return [stirred_case(mu, e, _CAL["eta_rpm"]) for e in _CAL["eta"]]
+    return [stirred_case(mu, e, _CAL["eta_rpm"], s) for e in _CAL["eta"] for s in _CAL_SEEDS]
 
 
 def stirred_stage3_cases(wildcards):
     choice = json.load(open(checkpoints.stirred_mill_viscosity.get().output.choice))
     mu = choice["friction"]
     etas = [0.0] + [c["eta_sim"] for c in choice["fluids"].values()]
-    return sorted({stirred_case(mu, e, r) for e in etas for r in _CAL["rpm"]})
+    return sorted(
+        {stirred_case(mu, e, r, s) for e in etas for r in _CAL["rpm"] for s in _CAL_SEEDS}
+    )
 
 
 # figures of the registry drawn from the power aggregate and the calibration tables

@@ -17,6 +17,12 @@ Each stage's choice carries a 95 % interval (``interval``): the parameter values
 simulated power, interpolated between the simulated values, stays consistent with the reference
 within the combined 95 % half-widths of simulation and reference.
 
+Replicates: cases of one point (friction, eta, rpm) that differ only in their random seed are
+pooled into one row (``case_table``, ``pool_replicates``): their weighted mean power, with the
+block intervals as its 95 % half-width where the replicates' scatter agrees with them, else
+widened to that scatter (a scale factor over all points of the stage, Student t). Whether one
+run's block intervals hold the case-to-case spread is thus measured, not assumed.
+
 Reference table (CSV, ``config/reference/stirred_mill_power.csv``): columns rpm [min-1], fluid
 (``dry`` for the dry benchmark), eta_exp [Pa s], net_power [W], source; optional net_power_ci [W],
 the reference's own 95 % half-width (absent: taken as exact). A row whose source says
@@ -59,17 +65,66 @@ def read_reference(path):
 
 
 def case_table(paths):
-    """One row per case: friction, eta, rpm, net power and its 95% half-width, path."""
+    """One row per point (friction, eta, rpm): the net power and its 95 % half-width pooled over
+    the point's replicates (``pool_replicates``), their number, seeds and paths."""
     rows = []
     for path in paths:
         ds = read_case(path, "stirred_mill")
         p = case_parameters(ds)
         rows.append(dict(friction=float(p["friction"]), eta=float(p["eta"]), rpm=float(p["rpm"]),
-                         net_power=float(ds["net_power"]), net_power_ci=float(ds["net_power_ci"]),
+                         seed=int(p["seed"]), net_power=float(ds["net_power"]),
+                         net_power_ci=float(ds["net_power_ci"]),
                          energy_balance_error=float(ds["energy_balance_error"]), case=str(path)))
     if not rows:
         raise ValueError("cases: none given")
-    return pd.DataFrame(rows)
+    return pool_replicates(pd.DataFrame(rows))
+
+
+def pool_replicates(cases):
+    """One row per (friction, eta, rpm) from the rows of its replicates (columns seed, net_power,
+    net_power_ci, energy_balance_error, case).
+
+    Each replicate's power has its block interval, sigma_k = ci_k / 1.96. A point's power is the
+    weighted mean (w_k = 1 / sigma_k^2), sigma_w = 1 / sqrt(sum w_k). Whether the block intervals
+    hold the seed-to-seed scatter is asked of all points together: chi^2 = sum over points and
+    replicates of w_k (P_k - mean)^2 with dof = sum (R - 1), and scale = sqrt(chi^2 / dof). The
+    95 % half-width is max(1.96 sigma_w, t_0.975,dof scale sigma_w): the block intervals where
+    the replicates agree with them, else their spread (then (mean - truth) / (scale sigma_w) is
+    Student-t with dof degrees of freedom when the block intervals are off by a common factor).
+    Without replicates (dof = 0) a point is its one case. Also: the largest |energy-balance
+    error|, replicates, replicate_sd (plain standard deviation), scale and dof, seeds and cases
+    (';'-joined). A seed given twice for one point is refused: the same case twice."""
+    from scipy import stats
+
+    points, chi2, dof = [], 0.0, 0
+    for (friction, eta, rpm), g in cases.groupby(["friction", "eta", "rpm"], sort=True):
+        if g["seed"].duplicated().any():
+            raise ValueError(f"cases: seed {g['seed'][g['seed'].duplicated()].iloc[0]} given "
+                             f"twice at friction {friction:g}, eta {eta:g}, {rpm:g} rpm")
+        power = g["net_power"].to_numpy()
+        ci = g["net_power_ci"].to_numpy()
+        if not (ci > 0).all():
+            raise ValueError(f"cases: net_power_ci must be > 0 to weigh replicates (friction "
+                             f"{friction:g}, eta {eta:g}, {rpm:g} rpm)")
+        w = (1.96 / ci) ** 2
+        mean = float(power[0]) if len(g) == 1 else float((w * power).sum() / w.sum())
+        chi2 += float((w * (power - mean) ** 2).sum())
+        dof += len(g) - 1
+        worst = g["energy_balance_error"].abs().to_numpy().argmax()
+        # the block intervals' 95 % half-width of the mean, 1.96 sigma_w (one case: its own)
+        block = float(ci[0]) if len(g) == 1 else 1.0 / math.sqrt(float((1.0 / ci**2).sum()))
+        points.append(dict(friction=friction, eta=eta, rpm=rpm, net_power=mean, block=block,
+                           energy_balance_error=float(g["energy_balance_error"].iloc[worst]),
+                           replicates=len(g),
+                           replicate_sd=float(power.std(ddof=1)) if len(g) > 1 else math.nan,
+                           seeds=";".join(str(s) for s in sorted(g["seed"])),
+                           case=";".join(g.sort_values("seed")["case"])))
+    scale = math.sqrt(chi2 / dof) if dof else math.nan
+    spread = float(stats.t.ppf(0.975, dof)) * scale / 1.96 if dof else 0.0
+    table = pd.DataFrame(points)
+    block = table.pop("block")
+    table.insert(4, "net_power_ci", np.maximum(block, spread * block))
+    return table.assign(replicate_scale=scale, replicate_dof=dof)
 
 
 def synthetic_reference(ref):
@@ -156,6 +211,16 @@ def _parabola_min(x, y):
     return float(np.clip(-b / (2 * a), x[k - 1], x[k + 1]))
 
 
+def replicate_summary(cases):
+    """The replicates behind a stage's points (pool_replicates' columns), for its choice file:
+    {per_point, scale, dof}; None for cases not pooled."""
+    if "replicate_dof" not in cases or cases.empty:
+        return None
+    dof = int(cases["replicate_dof"].iloc[0])
+    return dict(per_point=int(cases["replicates"].max()), dof=dof,
+                scale=float(cases["replicate_scale"].iloc[0]) if dof else None)
+
+
 def friction_ssr(table):
     """Sum over speeds of the squared residuals, per friction (from the stage 1 residual table)."""
     return (table.assign(sq=table["residual"] ** 2).groupby("friction")
@@ -181,6 +246,8 @@ def calibrate_friction(cases, ref):
                   ssr_min=float(ssr.min()), speeds=sorted(cases["rpm"].unique().tolist()))
     if len(mu) > 1:
         choice["friction_interval"] = friction_interval(cases)
+    if (reps := replicate_summary(cases)) is not None:
+        choice["replicates"] = reps
     return cases.sort_values(["friction", "rpm"]), summary, choice
 
 
@@ -199,10 +266,11 @@ def calibrate_viscosity(cases, ref, friction, rpm):
         res = sel["net_power"].to_numpy() - target
         eta = sel["eta"].to_numpy()
         first = len(rows)
-        for e, p, ci, r in zip(eta, sel["net_power"], sel["net_power_ci"], res):
+        reps = sel["replicates"] if "replicates" in sel else [1] * len(sel)
+        for e, p, ci, n, r in zip(eta, sel["net_power"], sel["net_power_ci"], reps, res):
             rows.append(dict(fluid=fluid, eta_exp=float(fref["eta_exp"].iloc[0]), eta_sim=e,
-                             rpm=rpm, net_power=p, net_power_ci=ci, reference=target,
-                             reference_ci=target_ci, residual=r))
+                             rpm=rpm, net_power=p, net_power_ci=ci, replicates=int(n),
+                             reference=target, reference_ci=target_ci, residual=r))
         k = int(np.argmin(res**2))
         # refined: where the power, linear in log eta between grid points, crosses the reference
         # (extrapolated from the end segment nearer the minimum when the grid does not bracket it)
@@ -228,7 +296,8 @@ def predict(cases, ref, friction, etas):
         for _, c in sel.sort_values("rpm").iterrows():
             target = _match(fref, c["rpm"])
             rows.append(dict(fluid=fluid, eta_sim=eta, rpm=c["rpm"], net_power=c["net_power"],
-                             net_power_ci=c["net_power_ci"], reference=target,
+                             net_power_ci=c["net_power_ci"], replicates=int(c.get("replicates", 1)),
+                             reference=target,
                              reference_ci=_match(fref, c["rpm"], "net_power_ci"),
                              residual=c["net_power"] - target))
     return pd.DataFrame(rows)

@@ -155,6 +155,12 @@ def velocity(ds, out):
     fig.savefig(out)
 
 
+def _replicates(t):
+    """' (mean of R seeds)' where the table's points pool R > 1 replicates, else ''."""
+    r = int(t["replicates"].max()) if "replicates" in t and len(t) else 1
+    return f" (mean of {r} seeds)" if r > 1 else ""
+
+
 def friction(t, out):
     """Seed Fig. 5: dry power vs speed per friction with the reference; residuals vs friction
     (from the stage 1 residual table), with the chosen friction and its 95 % interval."""
@@ -166,7 +172,7 @@ def friction(t, out):
     shift = dodge_step(t["rpm"], len(groups) + 1) if n < 3 else 0.0
     for k, (mu, sub) in enumerate(groups):
         points(a, sub["rpm"], sub["net_power"], sub["net_power_ci"], dodge=(k - len(groups)) * shift,
-               label=f"simulation {MU} = {mu:g}")
+               label=f"simulation {MU} = {mu:g}{_replicates(sub)}")
     ref = t.drop_duplicates("rpm").sort_values("rpm")
     points(a, ref["rpm"], ref["reference"], ref.get("reference_ci"), color="k", marker="s",
            mfc="none", ls="--", label="reference (dry)")
@@ -197,7 +203,7 @@ def viscosity(t, out):
     ax = fig.subplots()
     sim = t.drop_duplicates("eta_sim").sort_values("eta_sim")
     n = points(ax, sim["eta_sim"], sim["net_power"], sim["net_power_ci"], color="C0",
-               label=f"simulation vs {ETA_SIM}")
+               label=f"simulation vs {ETA_SIM}{_replicates(sim)}")
     few_points_note(ax, n, "viscosity")
     for k, (fluid, sub) in enumerate(t.groupby("fluid")):
         c = f"C{k + 1}"
@@ -224,7 +230,8 @@ def prediction(t, out):
     for k, (fluid, sub) in enumerate(t.groupby("fluid", sort=False)):
         c = f"C{k}"
         points(ax, sub["rpm"], sub["net_power"], sub["net_power_ci"], color=c, dodge=-shift,
-               label=f"simulation {fluid} ({ETA_SIM} {sub['eta_sim'].iloc[0]:g} Pa s)")
+               label=f"simulation {fluid} ({ETA_SIM} {sub['eta_sim'].iloc[0]:g} Pa s)"
+                     f"{_replicates(sub)}")
         points(ax, sub["rpm"], sub["reference"], sub.get("reference_ci"), color=c, marker="s",
                mfc="none", ls="--", dodge=shift, label=f"reference {fluid}")
     few_points_note(ax, n, "speed", dodged=bool(shift))
