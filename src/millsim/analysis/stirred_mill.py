@@ -91,9 +91,10 @@ def pool_replicates(cases):
     95 % half-width is max(1.96 sigma_w, t_0.975,dof scale sigma_w): the block intervals where
     the replicates agree with them, else their spread (then (mean - truth) / (scale sigma_w) is
     Student-t with dof degrees of freedom when the block intervals are off by a common factor).
-    Without replicates (dof = 0) a point is its one case. Also: the largest |energy-balance
-    error|, replicates, replicate_sd (plain standard deviation), scale and dof, seeds and cases
-    (';'-joined). A seed given twice for one point is refused: the same case twice."""
+    A point without replicates is its one case (any interval, 0 too). Also: the largest
+    |energy-balance error|, replicates, replicate_sd (plain standard deviation), scale and dof,
+    seeds and cases (';'-joined). A seed given twice for one point is refused: the same case
+    twice."""
     from scipy import stats
 
     points, chi2, dof = [], 0.0, 0
@@ -103,10 +104,10 @@ def pool_replicates(cases):
                              f"twice at friction {friction:g}, eta {eta:g}, {rpm:g} rpm")
         power = g["net_power"].to_numpy()
         ci = g["net_power_ci"].to_numpy()
-        if not (ci > 0).all():
+        if len(g) > 1 and not (ci > 0).all():
             raise ValueError(f"cases: net_power_ci must be > 0 to weigh replicates (friction "
                              f"{friction:g}, eta {eta:g}, {rpm:g} rpm)")
-        w = (1.96 / ci) ** 2
+        w = (1.96 / ci) ** 2 if len(g) > 1 else np.ones(1)
         mean = float(power[0]) if len(g) == 1 else float((w * power).sum() / w.sum())
         chi2 += float((w * (power - mean) ** 2).sum())
         dof += len(g) - 1
