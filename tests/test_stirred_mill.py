@@ -293,6 +293,7 @@ def test_replicates_pool_to_their_weighted_mean_and_scatter():
     # one replicate: the case itself
     row = pool_replicates(_replicates([7.0], [0.2])).iloc[0]
     assert (row["net_power"], row["net_power_ci"], row["replicates"]) == (7.0, 0.2, 1)
+    assert pool_replicates(_replicates([7.0], [0.0]))["net_power_ci"].iloc[0] == 0.0
     # points stay apart and share the scale: here the second point's two replicates agree
     # within their intervals, the first's do not (chi^2 = 2 x 0.5^2 x (1.96 / 0.1)^2, dof 1)
     two = pd.concat([_replicates([1.0, 2.0], [0.1, 0.1]), _replicates([5.0, 5.0], [0.1, 0.1], rpm=3500.0)])
