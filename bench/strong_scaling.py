@@ -17,9 +17,9 @@ the compiled passes, partly serial), and the threading layer. Where LIGGGHTS can
 installed, no MPI), the box row is millsim's alone and the error is stored.
 
 ``--concurrent K``: afterwards, each physics as K separate one-thread processes at once (K <= the
-CPUs). Threads share nothing of each other's work there, so each process's rate against the
-one-core row shows what the shared memory system and clock leave of a core when K are busy: a
-ceiling for threaded efficiency that no change to the threading can lift.
+CPUs). The processes share no work, so each one's rate against the one-core row shows what the
+shared memory system and clock leave of a core when K are busy: a yardstick for the threaded
+efficiency, not a strict bound (K processes hold K copies of the data, threads share one).
 
 Core counts above the machine's are refused (a row on oversubscribed cores measures the
 scheduler). bench/make_results.py turns the JSON into the "Strong scaling" table of RESULTS.md.
