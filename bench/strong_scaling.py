@@ -3,6 +3,7 @@
     python bench/strong_scaling.py [--cores 1 2 4 8 16] [--n 100000] [--steps 200]
                                    [--physics ballmill2d hertz_tavares beads_lubrication]
                                    [--box | --no-box] [--box-steps 20000] [--concurrent K]
+                                   [--concurrent-n M]
                                    [--json bench/out/strong_scaling.json]
 
 Rows: the three physics of bench/scaling.py at --n particles (each compiled as its scene compiles
@@ -20,6 +21,9 @@ installed, no MPI), the box row is millsim's alone and the error is stored.
 CPUs). The processes share no work, so each one's rate against the one-core row shows what the
 shared memory system and clock leave of a core when K are busy: a yardstick for the threaded
 efficiency, not a strict bound (K processes hold K copies of the data, threads share one).
+``--concurrent-n M``: those processes at M particles each (e.g. --n / K: one threaded run's
+memory in all), beside a lone one-thread process at M as their reference; the clock's share of
+the loss then stays, the memory's shrinks.
 
 Core counts above the machine's are refused (a row on oversubscribed cores measures the
 scheduler). bench/make_results.py turns the JSON into the "Strong scaling" table of RESULTS.md.
@@ -67,19 +71,19 @@ def row(physics, cores, cpus, n, r):
     """One physics row of the table from bench/scaling.py's child result ``r``."""
     keep = ("s_per_step", "steps", "list_rebuilds", "rebuild_s", "setup_s", "threading_layer",
             "contacts_per_particle")
-    return {"physics": physics, "code": "millsim", "cores": cores, "cpu_count": cpus,
+    return {"physics": physics, "code": "millsim", "cores": cores, "cpu_count": cpus, "n": n,
             "n_particles": r.get("n_particles", n),
             "rate": None if r.get("failed") else r["particle_steps_per_s"],
             "loadavg": r.get("loadavg"), "error": r.get("error"), **{k: r.get(k) for k in keep}}
 
 
 def efficiency(rows):
-    """Adds speedup and efficiency to each row, against the one-core row of the same physics
-    (concurrent rows: their rate against it, efficiency = speed-up)."""
-    one = {r["physics"]: r["rate"] for r in rows
+    """Adds speedup and efficiency to each row, against the one-core row of the same physics and
+    size (concurrent rows: their rate against it, efficiency = speed-up)."""
+    one = {(r["physics"], r.get("n")): r["rate"] for r in rows
            if r["cores"] == 1 and r.get("rate") and not r.get("concurrent")}
     for r in rows:
-        base = one.get(r["physics"])
+        base = one.get((r["physics"], r.get("n")))
         if base and r.get("rate"):
             r["speedup"] = r["rate"] / base
             r["efficiency"] = r["speedup"] / r["cores"]
@@ -98,6 +102,8 @@ def main(argv=None):
     ap.add_argument("--box-steps", type=int, default=20000, help="millsim's timed box steps")
     ap.add_argument("--concurrent", type=int, default=0,
                     help="then each physics as this many one-thread processes at once")
+    ap.add_argument("--concurrent-n", type=int,
+                    help="particles of each concurrent process (default --n)")
     ap.add_argument("--json", default=str(HERE / "out" / "strong_scaling.json"))
     args = ap.parse_args(argv)
     cpus = os.cpu_count() or 1
@@ -149,19 +155,24 @@ def main(argv=None):
             save()
             print(f"{physics:18s} {cores:3d} cores: {rows[-1]['rate'] or r.get('error')}", flush=True)
     if args.concurrent:
+        m = args.concurrent_n or args.n
         for physics in args.physics:
-            procs = [scaling.start(physics, args.n, args.steps, 1.0, 1, 0.1, 1000.0)
+            if m != args.n:  # the lone process at this size, the reference of the K below
+                r = scaling.measure(physics, m, args.steps, 1.0, 1, 0.1, 1000.0)
+                rows.append(row(physics, 1, cpus, m, r))
+            procs = [scaling.start(physics, m, args.steps, 1.0, 1, 0.1, 1000.0)
                      for _ in range(args.concurrent)]
             for r in [scaling.result(p) for p in procs]:
-                rows.append(dict(row(physics, 1, cpus, args.n, r), concurrent=args.concurrent))
+                rows.append(dict(row(physics, 1, cpus, m, r), concurrent=args.concurrent))
             save()
             rates = [r["rate"] for r in rows[-args.concurrent:] if r["rate"]]
             print(f"{physics:18s} {args.concurrent} one-thread processes at once: "
                   f"{min(rates, default=0):.3g}-{max(rates, default=0):.3g}", flush=True)
     for r in rows:
         eff = f"{r['efficiency']:.0%}" if "efficiency" in r else "-"
-        print(f"{r['physics']:24s} {r['cores']:3d} cores  {r['rate'] or 0:10.3g} particle-steps/s  "
-              f"efficiency {eff}")
+        together = f" ({r['concurrent']} at once)" if r.get("concurrent") else ""
+        print(f"{r['physics']:24s} {r['n_particles']:8d} particles {r['cores']:3d} cores{together}  "
+              f"{r['rate'] or 0:10.3g} particle-steps/s  efficiency {eff}")
     return rows
 
 
