@@ -63,15 +63,19 @@ def _command(d):
     return text + (f"; {d['note']}" if d.get("note") else "")
 
 
-def _machine():
-    model = ""
+def cpu_model():
+    """The processor's name from /proc/cpuinfo ("" where there is none)."""
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
+                return line.split(":", 1)[1].strip()
     except OSError:
         pass
+    return ""
+
+
+def _machine():
+    model = cpu_model()
     return f"{platform.system()} {platform.machine()}, {os.cpu_count()} logical CPUs" + (
         f" ({model})" if model else "")
 

@@ -42,6 +42,7 @@ sys.path.insert(0, str(HERE))
 
 import engine_throughput  # noqa: E402  (bench/engine_throughput.py)
 import scaling  # noqa: E402  (bench/scaling.py)
+from make_results import cpu_model  # noqa: E402  (bench/make_results.py)
 
 
 def default_cores():
@@ -55,15 +56,7 @@ def machine_info():
     import numba
     import numpy
 
-    model = "unknown"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {"cpu_model": model, "logical_cpus": os.cpu_count(), "python": platform.python_version(),
+    return {"cpu_model": cpu_model() or "unknown", "logical_cpus": os.cpu_count(), "python": platform.python_version(),
             "numba": numba.__version__, "numpy": numpy.__version__}
 
 
