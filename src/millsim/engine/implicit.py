@@ -75,10 +75,15 @@ def row_write(o, n0, n1, n2, kn, ks, kr, bi, bj):
 def fitted_theta(z):
     """theta of the theta-method that decays v' = -(z/tau) v exactly over tau (exponential
     fitting, Liniger & Willoughby 1970): 1/(1 - e^-z) - 1/z, from 1/2 (z -> 0: trapezoidal) to
-    1 (z -> infinity: backward Euler). Series below z = 0.1 (the difference cancels there)."""
+    1 (z -> infinity: backward Euler). Series below z = 0.1 (the difference cancels there); above
+    z = 40, e^-z < 5e-18 is below half an ulp of 1, so expm1(-z) is exactly -1 and is not called
+    (most rows of a dense wet bed are that stiff: the set-up pass then skips its most costly
+    call, bit for bit)."""
     if z < 0.1:
         z2 = z * z
         return 0.5 + z * (1.0 / 12.0 - z2 * (1.0 / 720.0 - z2 / 30240.0))
+    if z > 40.0:
+        return 1.0 - 1.0 / z
     return -1.0 / math.expm1(-z) - 1.0 / z
 
 
