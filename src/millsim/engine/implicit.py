@@ -55,10 +55,15 @@ RW_WIDTH = 51  # a pair's record
 RW_VJ = 51  # walls: the partner's velocity (3) and spin (3), the wall's rigid motion at the sphere
 RW_WALL_WIDTH = 57
 NR = 7
-# Scratch.lub_particle columns: the other loads (force, torque), the free velocity (v, w), and
-# u = M^-1 J^T p (translation, rotation)
-LP_FORCE, LP_VF, LP_U = 0, 6, 12
-LP_WIDTH = 18
+# Scratch.lub_particle columns: the other loads (force, torque), the free velocity (v, w),
+# u = M^-1 J^T p (translation, rotation), and the velocity at the kick's start v- (v, w): one record
+# per partner for the set-up instead of five arrays
+LP_FORCE, LP_VF, LP_U, LP_VM = 0, 6, 12, 18
+LP_WIDTH = 24
+# Scratch.lub_partner columns (one record per Verlet slot, written by p1_own): the pair's share of
+# J^T p on the partner (-F_i, T_j) and the row's p.C p
+LPP_CPP = 6
+LPP_WIDTH = 7
 
 
 @njit(inline="always", cache=True)
@@ -321,6 +326,8 @@ def _setup_kernels(spec, block):
                 for a in range(3):
                     LP[i, LP_VF + a] = v[i, a]
                     LP[i, LP_VF + 3 + a] = w[i, a]
+                    LP[i, LP_VM + a] = v[i, a] - 0.0 * acc[i, a]
+                    LP[i, LP_VM + 3 + a] = w[i, a] - 0.0 * alpha[i, a]
                 continue
             vb0 = v[i, 0] - back * acc[i, 0]
             vb1 = v[i, 1] - back * acc[i, 1]
@@ -328,6 +335,8 @@ def _setup_kernels(spec, block):
             wb0 = w[i, 0] - back * alpha[i, 0]
             wb1 = w[i, 1] - back * alpha[i, 1]
             wb2 = w[i, 2] - back * alpha[i, 2]
+            LP[i, LP_VM], LP[i, LP_VM + 1], LP[i, LP_VM + 2] = vb0, vb1, vb2
+            LP[i, LP_VM + 3], LP[i, LP_VM + 4], LP[i, LP_VM + 5] = wb0, wb1, wb2
             im, ii = P.inv_mass[i], P.inv_inertia[i]
             a0, a1, a2 = LP[i, LP_FORCE] * im, LP[i, LP_FORCE + 1] * im, LP[i, LP_FORCE + 2] * im
             if GRAVITY:
@@ -354,10 +363,10 @@ def _setup_kernels(spec, block):
         """Start the solve at every row of the block (pairs it owns, its particles' walls):
         b = J v_f, r = b - (C + W) lam (lam kept from the last step when ``warm``; u = M^-1 J^T lam
         from p1), z; partials lam.(b + r), r.z and b.D^-1 b into cg_part[blk, 0:3]."""
-        v, w, acc, alpha, body = P.v, P.w, P.acc, P.alpha, P.body
+        body = P.body
         start, nbr, rows, LP, WR = C.start, C.nbr, S.lub_slots, S.lub_particle, S.lub_rows
         rho = bb = fch = 0.0
-        for i in range(blk * block, min(v.shape[0], (blk + 1) * block)):
+        for i in range(blk * block, min(body.shape[0], (blk + 1) * block)):
             for k in range(start[i], start[i + 1]):
                 o = rows[k]
                 if o[RW_ACT] == 0.0:
@@ -369,14 +378,10 @@ def _setup_kernels(spec, block):
                            LP[i, LP_VF + 3], LP[i, LP_VF + 4], LP[i, LP_VF + 5],
                            LP[j, LP_VF], LP[j, LP_VF + 1], LP[j, LP_VF + 2],
                            LP[j, LP_VF + 3], LP[j, LP_VF + 4], LP[j, LP_VF + 5])
-                hi = 0.0 if body[i] >= 0 else back
-                hj = 0.0 if body[j] >= 0 else back
-                jm = row_jv(o, v[i, 0] - hi * acc[i, 0], v[i, 1] - hi * acc[i, 1],
-                            v[i, 2] - hi * acc[i, 2], w[i, 0] - hi * alpha[i, 0],
-                            w[i, 1] - hi * alpha[i, 1], w[i, 2] - hi * alpha[i, 2],
-                            v[j, 0] - hj * acc[j, 0], v[j, 1] - hj * acc[j, 1],
-                            v[j, 2] - hj * acc[j, 2], w[j, 0] - hj * alpha[j, 0],
-                            w[j, 1] - hj * alpha[j, 1], w[j, 2] - hj * alpha[j, 2])
+                jm = row_jv(o, LP[i, LP_VM], LP[i, LP_VM + 1], LP[i, LP_VM + 2],
+                            LP[i, LP_VM + 3], LP[i, LP_VM + 4], LP[i, LP_VM + 5],
+                            LP[j, LP_VM], LP[j, LP_VM + 1], LP[j, LP_VM + 2],
+                            LP[j, LP_VM + 3], LP[j, LP_VM + 4], LP[j, LP_VM + 5])
                 for q in range(NR):
                     o[RW_JM + q] = jm[q]
                 ju = pair_ju(o, LP, i, j)
@@ -418,8 +423,9 @@ def _product_kernels(spec, block):
         the new direction z + beta p (a = RW_Z: stored in its place for the second half and p3),
         or the impulses kept from the last step (a = RW_LAM, beta = 0). Sums J^T p of the rows a
         particle owns into its u columns and writes each pair's share on the partner
-        (S.lub_partner: -F_i, T_j; zero where no row), so the second half reads one narrow record
-        per partner slot instead of the row's wide one at a scattered place."""
+        (S.lub_partner: -F_i, T_j, and the row's p.C p; zero where no row), so the second half
+        reads one narrow record per slot instead of the row's wide one (at a scattered place for
+        the partner's share)."""
         start, rows, partner, LP = C.start, S.lub_slots, S.lub_partner, S.lub_particle
         store = a == RW_Z
         for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
@@ -427,7 +433,7 @@ def _product_kernels(spec, block):
             for k in range(start[i], start[i + 1]):
                 o = rows[k]
                 if o[RW_ACT] == 0.0:
-                    for c in range(6):
+                    for c in range(LPP_WIDTH):
                         partner[k, c] = 0.0
                     continue
                 p = row_combine(o, a, beta)
@@ -443,6 +449,7 @@ def _product_kernels(spec, block):
                 T2 += f[5]
                 partner[k, 0], partner[k, 1], partner[k, 2] = f[0], f[1], f[2]
                 partner[k, 3], partner[k, 4], partner[k, 5] = f[6], f[7], f[8]
+                partner[k, LPP_CPP] = row_cpp(o, p[0], p[1], p[2], p[3], p[4], p[5], p[6])
             if P.body[i] >= 0:
                 continue  # infinite mass: its u stays 0 (partners read it)
             LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2] = F0, F1, F2
@@ -450,19 +457,15 @@ def _product_kernels(spec, block):
 
     def p1_partner(blk, beta, a, P, C, S):
         """Second half: the partner shares and the wall rows added, u = M^-1 J^T p per free
-        particle; the block's part of p.(C + W) p = sum of p.C p over its own rows + sum of
-        (J^T p).u over its particles into cg_part[blk, 0]. (p of a pair row is where p1_own left
-        it: the stored direction, or the impulses.)"""
-        start, rev_start, rev_slot, rows = C.start, C.rev_start, C.rev_slot, S.lub_slots
+        particle; the block's part of p.(C + W) p = sum of p.C p over its own rows (from
+        p1_own's records: 0 where no row) + sum of (J^T p).u over its particles into
+        cg_part[blk, 0]."""
+        start, rev_start, rev_slot = C.start, C.rev_start, C.rev_slot
         partner, LP, WR = S.lub_partner, S.lub_particle, S.lub_rows
-        own = RW_DIR if a == RW_Z else a
         pq = 0.0
         for i in range(blk * block, min(P.x.shape[0], (blk + 1) * block)):
             for k in range(start[i], start[i + 1]):
-                o = rows[k]
-                if o[RW_ACT] != 0.0:
-                    pq += row_cpp(o, o[own], o[own + 1], o[own + 2], o[own + 3], o[own + 4],
-                                  o[own + 5], o[own + 6])
+                pq += partner[k, LPP_CPP]
             if P.body[i] >= 0:
                 continue  # infinite mass: u = 0 (never written), no part in W
             F0, F1, F2 = LP[i, LP_U], LP[i, LP_U + 1], LP[i, LP_U + 2]

@@ -34,6 +34,7 @@ from numba.core.cpu_options import ParallelOptions
 from .implicit import (
     LP_FORCE,
     LP_WIDTH,
+    LPP_WIDTH,
     RW_ACT,
     RW_LAM,
     RW_VJ,
@@ -194,7 +195,7 @@ class ChunkRunner:
         return Scratch(out=np.empty((slots, self.slot_width)),
                        proll=np.empty((slots if self.rolling else 0, 2, 3)),
                        lub_slots=np.zeros((slots if implicit else 0, RW_WIDTH)),
-                       lub_partner=np.empty((slots if implicit else 0, 6)), **shared)
+                       lub_partner=np.empty((slots if implicit else 0, LPP_WIDTH)), **shared)
 
 
 
