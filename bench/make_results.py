@@ -86,6 +86,11 @@ def _table(head, rows):
     return "\n".join(lines)
 
 
+def _seconds(value):
+    """One decimal, or "-" where the run skipped it (--no-start-times)."""
+    return "-" if value is None else f"{value:.1f}"
+
+
 def throughput():
     files = _load("box_*.json") + _load("drum_*.json")
     text = ["## Engine throughput against LIGGGHTS 3.8", ""]
@@ -100,8 +105,8 @@ def throughput():
     for p, d in files:
         rows.append([d["case"], d["cores"], _g(d["millsim_psps"]), _g(d["liggghts_psps"]),
                      f"{d['ratio']:.2f}", _g(d["millsim_contacts_per_particle"]),
-                     d.get("millsim_list_rebuilds", "-"), f"{d['compile_s']:.1f}",
-                     f"{d['cached_start_s']:.1f}", _load_note(_one_minute(d.get("loadavg"))),
+                     d.get("millsim_list_rebuilds", "-"), _seconds(d.get("compile_s")),
+                     _seconds(d.get("cached_start_s")), _load_note(_one_minute(d.get("loadavg"))),
                      p.name])
     text.append(_table(["case", "cores", "millsim [particle-steps/s]", "LIGGGHTS [particle-steps/s]",
                         "millsim / LIGGGHTS", "contacts/particle", "list rebuilds", "compile [s]",
