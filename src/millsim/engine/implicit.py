@@ -326,8 +326,8 @@ def _setup_kernels(spec, block):
                 for a in range(3):
                     LP[i, LP_VF + a] = v[i, a]
                     LP[i, LP_VF + 3 + a] = w[i, a]
-                    LP[i, LP_VM + a] = v[i, a] - 0.0 * acc[i, a]
-                    LP[i, LP_VM + 3 + a] = w[i, a] - 0.0 * alpha[i, a]
+                    LP[i, LP_VM + a] = v[i, a]
+                    LP[i, LP_VM + 3 + a] = w[i, a]
                 continue
             vb0 = v[i, 0] - back * acc[i, 0]
             vb1 = v[i, 1] - back * acc[i, 1]

@@ -295,9 +295,7 @@ class _Parts:
                                f"{self.key}|{fn.__name__}")
 
     def _parallel(self, fn):
-        # Only the prange loops run in parallel: no numpy call or array expression becomes a
-        # parallel loop, and consecutive loops are not fused (each pass reads what the one before
-        # wrote for other blocks).
+        # PRANGE_ONLY: only the prange loops run in parallel, consecutive loops are not fused
         return stable_identity(njit(parallel=PRANGE_ONLY, cache=True, fastmath=FAST)(fn),
                                f"{self.key}|{fn.__name__}")
 
