@@ -306,3 +306,22 @@ def test_the_ballmill_rate_figure_follows_the_same_rule(tmp_path, saved):
     rate, power = saved[0][0].axes
     assert [c.lines[0].get_linestyle() for c in rate.containers] == ["None"]
     assert [t.get_text() for t in power.texts] == ["2 speeds: no trend line"]
+
+
+@pytest.mark.parametrize("slice_,expected", [
+    (1, "periodic slice around 1 of 4 disks, scale 0.45, 2,487 beads: not the LS1's power"),
+    (0, "full chamber, 4 disks, scale 1, 2,487 beads + 655 agitator spheres"),
+])
+def test_the_stirred_figures_name_the_simulated_domain(tmp_path, saved, slice_, expected):
+    """A full-chamber study must not be captioned as the quick slice, nor the slice as the LS1."""
+    agg = tmp_path / "s.nc"
+    ds = xr.open_dataset(stirred_aggregate(tmp_path / "raw.nc")).load()
+    ds.attrs.update(param_slice=slice_, param_scale=1.0 if slice_ == 0 else 0.45, param_disks=4)
+    ds["n_bead"] = (("eta", "rpm"), np.full((2, 2), 2487), {"units": "1"})
+    ds["n_agitator_particles"] = (("eta", "rpm"), np.full((2, 2), 655), {"units": "1"})
+    write_netcdf(agg, ds)
+    for figure in ("stirred_mill_power", "stirred_mill_typology"):
+        assert main(["plot", figure, str(agg), "--out", str(tmp_path / f"{figure}.png")]) == 0
+    power, typology = (fig for fig, _ in saved)
+    assert power.get_suptitle() == expected
+    assert typology.get_suptitle() == expected

@@ -50,8 +50,10 @@ class Plot:
 _SYNTHETIC = ("The shipped reference (config/reference/stirred_mill_power.csv) is a SYNTHETIC twin "
               "produced by this engine, not a measurement; config/reference/SOURCES.md says how "
               "to drop in measured data.")
-_STIRRED = ("Quick-study cases run a periodic slice around one disk of a geometrically scaled "
-            "chamber (docs/stirred_mill.md), so powers are those of the slice, not of the LS1.")
+_STIRRED = ("The title names the simulated domain: the quick study runs a periodic slice around "
+            "one disk of a geometrically scaled chamber (docs/stirred_mill.md), whose powers are "
+            "those of the slice, not of the LS1; config/paper.yaml and config/ls1_power.yaml run "
+            "the full chamber.")
 _FEW = ("Fewer than 3 simulated points are drawn without a connecting line, and the figure says "
         "how many.")
 

@@ -26,6 +26,25 @@ def _cases(ds):
             yield f"{ETA} = {eta:g} Pa s, {rpm:g} min$^{{-1}}$", ds.sel(eta=eta, rpm=rpm)
 
 
+def domain(ds):
+    """The simulated domain, from the aggregate's fixed parameters ('' where they are missing):
+    the quick study's slice draws the power of a slice, not of the LS1, so every figure says which."""
+    if "param_slice" not in ds.attrs:
+        return ""
+    scale, disks = float(ds.attrs["param_scale"]), int(ds.attrs["param_disks"])
+    beads = f", {int(ds['n_bead'].max()):,} beads" if "n_bead" in ds else ""
+    if int(ds.attrs["param_slice"]):
+        return f"periodic slice around 1 of {disks} disks, scale {scale:g}{beads}: not the LS1's power"
+    spheres = (f" + {int(ds['n_agitator_particles'].max()):,} agitator spheres"
+               if "n_agitator_particles" in ds else "")
+    return f"full chamber, {disks} disks, scale {scale:g}{beads}{spheres}"
+
+
+def _with_domain(title, ds):
+    where = domain(ds)
+    return f"{title}\n{where}" if where else title
+
+
 def power(ds, out):
     """Net power vs agitator speed, one set of points per simulation viscosity (95% intervals)."""
     fig = Figure(figsize=(6.0, 4.2), layout="constrained")
@@ -38,7 +57,9 @@ def power(ds, out):
     few_points_note(ax, n, "speed")
     fr = ds.attrs.get("param_friction", "")
     ax.set(xlabel=RPM, ylabel=POWER, ylim=(0, None),
-           title=f"Net power vs speed and viscosity ({MU} = {fr}; power of the simulated domain)")
+           title=f"Net power vs speed and viscosity ({MU} = {fr})")
+    if domain(ds):
+        fig.suptitle(domain(ds), fontsize=9)
     ax.legend()
     fig.savefig(out)
 
@@ -87,6 +108,8 @@ def typology_figure(ds):
             ax2.axhline(sign * tol, color="r", lw=0.8, ls="--")
     ax2.set_xticks(x, [lab.replace(", ", "\n") for lab, _ in cases])
     ax2.grid(False, axis="x")
+    if domain(ds):
+        fig.suptitle(domain(ds), fontsize=9)
     return fig
 
 
@@ -117,7 +140,8 @@ def regions(ds, out):
     for ax in axes[len(cases):]:
         ax.set_visible(False)
     fig.colorbar(im, ax=axes.tolist(), label="share of bead-bead collisions [%]", shrink=0.8)
-    fig.suptitle("Relative bead-bead collision frequency by region (one colour scale)")
+    fig.suptitle(_with_domain("Relative bead-bead collision frequency by region (one colour scale)",
+                              ds))
     fig.savefig(out)
 
 
@@ -150,8 +174,8 @@ def velocity(ds, out):
                  location="bottom", extend="max")
     fig.colorbar(im2, ax=axes[:, 1].tolist(), label=label(f"|{SYMBOL['omega']}|", "rad s-1"),
                  shrink=0.6, location="bottom", extend="max")
-    fig.suptitle("Coarse-grained bead speed on the axial slab\n(one colour scale per quantity, "
-                 "ending at its 99th percentile over all cells)")
+    fig.suptitle(_with_domain("Coarse-grained bead speed on the axial slab\n(one colour scale per "
+                              "quantity, ending at its 99th percentile over all cells)", ds))
     fig.savefig(out)
 
 
