@@ -238,6 +238,22 @@ def scaling():
     return text
 
 
+def full_ls1_study():
+    files = _load("full_ls1_study.json")
+    if not files:
+        return []
+    from ls1_study import table
+
+    _, d = files[0]
+    return ["## Full LS1 power study: cost per case beside seed 004 Table 3", "",
+            f"{_command(d)}: the case files of `config/ls1_power.yaml`, one thread per case, two "
+            "cases at a time on this VM. Cost = the compiled loop's seconds per simulated ms on "
+            "one core, projected to the seed's 52.5 ms; Table 3 ran eta = 0 on 1 processor and "
+            "1 Pa s on 8 (it gives no other viscosity). Power: mean over the averaging window "
+            "with its 95 % block interval; analysis in docs/results/stirred_mill.md.", "",
+            table(d["cases"]), ""]
+
+
 def ls1():
     files = _load("ls1*.json")
     text = ["## Full-scale LS1 stirred mill against seed 004 Table 3", ""]
@@ -471,7 +487,7 @@ def main(argv=None):
             "makes largely load-independent. Timings older than the load recording say \"not "
             "recorded\".", ""]
     for section in (summary, throughput, strong_scaling, leave_out, scaling, ls1,
-                    lubrication, size_ratio, mesh_walls):
+                    full_ls1_study, lubrication, size_ratio, mesh_walls):
         text += section()
     Path(args.out).write_text("\n".join(text).rstrip() + "\n")
     print(f"wrote {args.out}")

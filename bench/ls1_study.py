@@ -1,0 +1,127 @@
+"""The full-LS1 power study's case files: cost per case beside seed 004 Table 3, and the
+power, energy balance, typology and region shares of each case (issue 12, item 3).
+
+    python bench/ls1_study.py CASE.nc [CASE.nc ...] [--json bench/out/full_ls1_study.json]
+                              [--figure docs/figures/ls1_power_series.png]
+
+The cases are those of ``config/ls1_power.yaml`` (``snakemake ... --configfile config/paper.yaml
+config/ls1_power.yaml``), each run on one thread. Cost: the compiled loop's seconds
+(``compute_seconds``) per simulated millisecond, projected to the seed's 52.5 ms on one core;
+seed 004 Table 3 ran eta = 0 on 1 processor and eta = 1 Pa s on 8. The figure draws each
+case's agitator power against time, with the averaging window and the mean with its 95 % interval,
+so that a reader sees how far each case is from a steady state.
+"""
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ls1 import SEED_SIM_MS, SEED_TABLE3_H, SEED_TABLE3_PROCESSORS  # noqa: E402
+
+
+def case_row(path):
+    from millsim.io import read_case
+
+    ds = read_case(path, "stirred_mill")
+    p = json.loads(ds.attrs["parameters_json"])
+    if p["slice"]:
+        raise ValueError(f"{path}: a slice case; this study is the full chamber")
+    sim_ms = float(ds.attrs["steps"]) * float(ds.attrs["dt"]) * 1e3
+    s_per_ms = float(ds.attrs["compute_seconds"]) / sim_ms
+    seed_h = SEED_TABLE3_H.get(int(p["rpm"]))
+    wet = p["eta"] > 0
+    return dict(
+        case=str(path), eta=p["eta"], rpm=p["rpm"], scheme=p["lubrication_scheme"] if wet else "-",
+        threads=int(ds.attrs["threads"]), dt=float(ds.attrs["dt"]), steps=int(ds.attrs["steps"]),
+        sim_ms=sim_ms, revolutions=p["revolutions"], compute_s=float(ds.attrs["compute_seconds"]),
+        s_per_sim_ms=s_per_ms, projected_h_per_52_5_ms=s_per_ms * SEED_SIM_MS / 3600,
+        # Table 3 gives eta = 0 and 1 Pa s only
+        seed_table3_h=seed_h[wet] if seed_h and p["eta"] in (0.0, 1.0) else None,
+        seed_table3_processors=SEED_TABLE3_PROCESSORS[wet],
+        cg_iterations_per_step=float(ds.attrs.get("lubrication_iterations_per_step", 0.0)),
+        n_beads=int(ds["n_bead"]), n_agitator_particles=int(ds["n_agitator_particles"]),
+        net_power=float(ds["net_power"]), net_power_ci=float(ds["net_power_ci"]),
+        statistics_start=float(ds["statistics_start"]),
+        steady_state_start=float(ds["steady_state_start"]),
+        steady_state_detected=bool(ds["steady_state_detected"]),
+        energy_balance_error=float(ds["energy_balance_error"]),
+        energy_balance_error_run=float(ds["energy_balance_error_run"]),
+        typology={str(k): float(v) for k, v in zip(ds["typology"].values,
+                                                   ds["typology_fraction"].values)},
+        regions={str(k): float(v) for k, v in zip(ds["region"].values,
+                                                  ds["collision_frequency_relative"].values)},
+        engine_hash=ds.attrs["engine_hash"],
+        series=dict(time=ds["time"].values.tolist(), power=ds["agitator_power"].values.tolist()),
+    )
+
+
+def table(rows):
+    head = ("| eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms (1 core) | "
+            "projected 52.5 ms [h, 1 core] | seed 004 Table 3 [h] | CG it./step | net power [W] | "
+            "energy balance [%] | impact / shearing / rolling [%] |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in sorted(rows, key=lambda r: (r["eta"], r["rpm"])):
+        t = r["typology"]
+        seed = (f"{r['seed_table3_h']:g} ({r['seed_table3_processors']} proc.)"
+                if r["seed_table3_h"] else "-")
+        lines.append(
+            f"| {r['eta']:g} | {r['rpm']:g} | {r['dt']:.3g} | {r['sim_ms']:.1f} | "
+            f"{r['s_per_sim_ms']:.3g} | {r['projected_h_per_52_5_ms']:.2f} | {seed} | "
+            f"{r['cg_iterations_per_step']:.2f} | {r['net_power']:.3g} +- {r['net_power_ci']:.2g} | "
+            f"{100 * r['energy_balance_error']:+.3f} | {100 * t['impact']:.0f} / "
+            f"{100 * t['shearing']:.0f} / {100 * t['rolling']:.0f} |")
+    return "\n".join(lines)
+
+
+def figure(rows, out):
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    from millsim.plots.style import RC
+
+    speeds = sorted({r["rpm"] for r in rows})
+    etas = sorted({r["eta"] for r in rows})  # one colour per viscosity in every panel
+    with matplotlib.rc_context(RC):
+        fig = Figure(figsize=(3.4 * len(speeds), 3.8), layout="constrained")
+        axes = np.atleast_1d(fig.subplots(1, len(speeds), sharey=False))
+        handles = {}
+        for ax, rpm in zip(axes, speeds):
+            for r in sorted((r for r in rows if r["rpm"] == rpm), key=lambda r: r["eta"]):
+                colour = f"C{etas.index(r['eta'])}"
+                t = np.asarray(r["series"]["time"]) * 1e3
+                handles[r["eta"]], = ax.plot(t, r["series"]["power"], lw=0.9, color=colour,
+                                             label=f"{r['eta']:g} Pa s")
+                t0 = r["statistics_start"] * 1e3
+                ax.hlines(r["net_power"], t0, t[-1], color=colour, lw=2)
+                ax.fill_between([t0, t[-1]], r["net_power"] - r["net_power_ci"],
+                                r["net_power"] + r["net_power_ci"], color=colour, alpha=0.2, lw=0)
+                ax.axvline(t0, color="0.5", lw=0.8, ls="--")
+            ax.set(xlabel="time [ms]", ylabel="agitator power [W]", title=f"{rpm:g} min$^{{-1}}$",
+                   ylim=(0, None))
+        axes[0].legend(handles=[handles[e] for e in etas], title="simulation viscosity")
+        fig.suptitle("Full LS1: agitator power against time\nthick: mean over the averaging "
+                     "window (from the dashed line), band: its 95 % interval", fontsize=9)
+        fig.savefig(out)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("cases", nargs="+")
+    ap.add_argument("--json")
+    ap.add_argument("--figure")
+    args = ap.parse_args(argv)
+    rows = [case_row(p) for p in args.cases]
+    print(table(rows))
+    if args.json:
+        command = "python bench/ls1_study.py " + " ".join(argv if argv is not None else sys.argv[1:])
+        Path(args.json).write_text(json.dumps(dict(command=command, cases=rows), indent=1))
+    if args.figure:
+        figure(rows, args.figure)
+
+
+if __name__ == "__main__":
+    main()
