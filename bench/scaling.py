@@ -159,16 +159,15 @@ BUILDERS = {"ballmill2d": build_ballmill2d, "hertz_tavares": build_hertz_tavares
             "beads_lubrication": build_beads_lubrication}
 
 
-def child(physics, n, steps, dt_factor, threads, eta, rpm):
-    import resource
-    import time
+def time_list_rebuilds():
+    """Time the list rebuilds from now on: a one-element list holding their seconds so far.
 
-    import numba
+    They run between the compiled step passes and their serial parts cap the speed-up, so the
+    rebuild the chunk runner calls is wrapped in a timer (reset the element to start a window)."""
+    import time
 
     from millsim.engine import loop as engine_loop
 
-    # the list rebuilds' share of the loop (they run between the compiled step passes; their
-    # serial parts cap the speed-up): the rebuild the chunk runner calls, timed around each call
     rebuild_s = [0.0]
     untimed_rebuild = engine_loop.rebuilt_contacts
 
@@ -179,6 +178,16 @@ def child(physics, n, steps, dt_factor, threads, eta, rpm):
         return contacts
 
     engine_loop.rebuilt_contacts = timed_rebuild
+    return rebuild_s
+
+
+def child(physics, n, steps, dt_factor, threads, eta, rpm):
+    import resource
+    import time
+
+    import numba
+
+    rebuild_s = time_list_rebuilds()
     load0 = os.getloadavg()
     numba.set_num_threads(threads)
     t0 = time.perf_counter()

@@ -28,18 +28,13 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 CHILD = r"""
-import hashlib, json, sys, time
+import hashlib, json, sys
 import numpy as np
 sys.path.insert(0, sys.argv[1])
 import scaling
-from millsim.engine import loop as engine_loop
 
 n, steps, factor, threads = int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5])
-rebuild_s = [0.0]
-untimed = engine_loop.rebuilt_contacts
-def timed(*args):
-    t = time.perf_counter(); c = untimed(*args); rebuild_s[0] += time.perf_counter() - t; return c
-engine_loop.rebuilt_contacts = timed
+rebuild_s = scaling.time_list_rebuilds()
 sim, info = scaling.build_ballmill2d(n, 1.0, 0.0, 0.0, skin_factor=factor)
 sim.run(50, chunk=50, threads=threads)
 loop0, rebuilds0 = sim.wall_seconds, int(sim.counters[0])
