@@ -23,6 +23,20 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ls1 import SEED_SIM_MS, SEED_TABLE3_H, SEED_TABLE3_PROCESSORS  # noqa: E402
 
 
+def drift(time, power, start, blocks=8):
+    """Change of the power over the averaging window [W] and its 95 % half-width: the slope of
+    the block means against time (least squares, Student-t with blocks - 2 degrees of freedom)
+    times the window's length. A steady state has an interval that holds 0."""
+    from scipy import stats
+
+    keep = time > start
+    t, p = np.array_split(time[keep], blocks), np.array_split(power[keep], blocks)
+    tm, pm = np.array([x.mean() for x in t]), np.array([x.mean() for x in p])
+    fit = stats.linregress(tm, pm)
+    length = time[keep][-1] - start
+    return fit.slope * length, stats.t.ppf(0.975, blocks - 2) * fit.stderr * length
+
+
 def case_row(path):
     from millsim.io import read_case
 
@@ -33,6 +47,8 @@ def case_row(path):
     sim_ms = float(ds.attrs["steps"]) * float(ds.attrs["dt"]) * 1e3
     s_per_ms = float(ds.attrs["compute_seconds"]) / sim_ms
     seed_h = SEED_TABLE3_H.get(int(p["rpm"]))
+    change, change_ci = drift(ds["time"].values, ds["agitator_power"].values,
+                              float(ds["statistics_start"]), int(p["ci_blocks"]))
     wet = p["eta"] > 0
     return dict(
         case=str(path), eta=p["eta"], rpm=p["rpm"], scheme=p["lubrication_scheme"] if wet else "-",
@@ -48,6 +64,7 @@ def case_row(path):
         statistics_start=float(ds["statistics_start"]),
         steady_state_start=float(ds["steady_state_start"]),
         steady_state_detected=bool(ds["steady_state_detected"]),
+        window_drift=change, window_drift_ci=change_ci,
         energy_balance_error=float(ds["energy_balance_error"]),
         energy_balance_error_run=float(ds["energy_balance_error_run"]),
         typology={str(k): float(v) for k, v in zip(ds["typology"].values,
@@ -62,7 +79,7 @@ def case_row(path):
 def table(rows):
     head = ("| eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms (1 core) | "
             "projected 52.5 ms [h, 1 core] | seed 004 Table 3 [h] | CG it./step | net power [W] | "
-            "energy balance [%] | impact / shearing / rolling [%] |")
+            "drift over the window [W] | energy balance [%] | impact / shearing / rolling [%] |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in sorted(rows, key=lambda r: (r["eta"], r["rpm"])):
         t = r["typology"]
@@ -72,6 +89,7 @@ def table(rows):
             f"| {r['eta']:g} | {r['rpm']:g} | {r['dt']:.3g} | {r['sim_ms']:.1f} | "
             f"{r['s_per_sim_ms']:.3g} | {r['projected_h_per_52_5_ms']:.2f} | {seed} | "
             f"{r['cg_iterations_per_step']:.2f} | {r['net_power']:.3g} +- {r['net_power_ci']:.2g} | "
+            f"{r['window_drift']:+.2g} +- {r['window_drift_ci']:.2g} | "
             f"{100 * r['energy_balance_error']:+.3f} | {100 * t['impact']:.0f} / "
             f"{100 * t['shearing']:.0f} / {100 * t['rolling']:.0f} |")
     return "\n".join(lines)
