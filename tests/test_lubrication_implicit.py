@@ -449,6 +449,31 @@ def test_contacts_set_the_step_for_eta_up_to_10(eta):
     assert explicit.dt < dry.dt / (2 if eta < 1 else 20)
 
 
+@pytest.mark.parametrize("eta", [0.01, 0.03, 0.1, 0.3, 1.0, 10.0])
+def test_auto_picks_implicit_where_the_explicit_step_is_over_5x_below_the_dry_one(eta):
+    """lubrication_scheme=auto on the slice: implicit (at the dry step) where the explicit
+    scheme's automatic step is over 5x below the dry one, else explicit (at its own step). The
+    explicit step falls as 1/eta above the contacts' (3x below at 0.1 Pa s, 9x at 0.3)."""
+    base = dict(scale=0.45, slice=True, seed=1, n_beads=300)
+    dry, _ = sm.build(SCENE.resolve(dict(base, eta=0.0)))
+    explicit, _ = sm.build(SCENE.resolve(dict(base, eta=eta)))
+    auto, _ = sm.build(SCENE.resolve(dict(base, eta=eta, lubrication_scheme="auto")))
+    expected = "implicit" if dry.dt > 5.0 * explicit.dt else "explicit"
+    assert auto.fluid.scheme == expected
+    assert auto.dt == (dry.dt if expected == "implicit" else explicit.dt)
+    assert expected == ("explicit" if eta <= 0.1 else "implicit")  # ratios 3.0 at 0.1, 9.0 at 0.3
+
+
+def test_auto_with_gear_is_explicit():
+    """The implicit scheme has no Gear form: auto falls back to the explicit scheme there."""
+    table = MaterialTable([Material("bead", RHO)], {"*": Interaction(normal_stiffness=K_N)},
+                          "linear_history")
+    sim = Simulation(PhysicsSpec(dim=3, integrator="gear"), table, x=[[0, 0, 0]], radius=[A_S],
+                     material="bead", fluid=Lubrication(10.0, scheme="auto"))
+    assert sim.fluid.scheme == "explicit"
+    assert sim.dt_report.binding.kind == "lubrication"
+
+
 @pytest.mark.parametrize("override,match", [
     (dict(lubrication_scheme="crank"), "lubrication_scheme: must be one of"),
     (dict(lubrication_tolerance=0.0), "lubrication_tolerance"),

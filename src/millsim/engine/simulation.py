@@ -220,10 +220,6 @@ class Simulation:
         for model, kind in ((breakage, "breakage"), (fluid, "fluid")):
             if model is not None and getattr(model, "kind", None) != kind:
                 raise ValueError(f"{kind}: expected a {kind} model, got {model!r}")
-        if fluid is not None and fluid.implicit and spec.integrator != "verlet":
-            # the implicit solve is a leapfrog kick (engine.implicit); Gear has none
-            raise ValueError(f"fluid: the implicit lubrication scheme needs integrator 'verlet', "
-                             f"got {spec.integrator!r}")
         self.thickness = float(thickness)
         self.pair_params = table.pair_params(spec.convention)
         radius = np.asarray(radius, dtype=float)
@@ -242,7 +238,16 @@ class Simulation:
         self.policy = step
         self.guards = Guards(guards.max_overlap, float(guards.v_max) if guards.v_max is not None
                              else max(100.0, 10.0 * step.impact_speed))
-        self.breakage, self.fluid = breakage, fluid
+        self.particles = self._make_particles(x, radius, material, v, w, body)
+        self.breakage, self.fluid = breakage, None
+        if fluid is not None and fluid.scheme == "auto":  # the scheme the dry step calls for
+            fluid = fluid.resolve(self._time_step_report().recommended,
+                                  self._smallest_for_fluid(*self._step_particles()))
+        if fluid is not None and fluid.implicit and spec.integrator != "verlet":
+            # the implicit solve is a leapfrog kick (engine.implicit); Gear has none
+            raise ValueError(f"fluid: the implicit lubrication scheme needs integrator 'verlet', "
+                             f"got {spec.integrator!r}")
+        self.fluid = fluid
         if fluid is not None and spec.translating_walls:
             raise ValueError("translating_walls: not with a fluid (the wall lubrication knows "
                              "only a wall's turning)")
@@ -257,7 +262,6 @@ class Simulation:
                              fluid is not None and fluid.implicit)
         # lubrication reaches h_max beyond contact: the neighbour list must hold those pairs
         self.reach = fluid.reach(float(np.max(radius))) if fluid else 0.0
-        self.particles = self._make_particles(x, radius, material, v, w, body)
         self.tags = {}
         for name, values in (tags or {}).items():
             self.tags[name] = self._tag_array(name, values, n)
@@ -521,7 +525,9 @@ class Simulation:
             self._W = with_mesh_candidates(self._W, self.particles, self.skin, self.time)
 
     # ---- time step ----------------------------------------------------------------------------
-    def _time_step_report(self):
+    def _step_particles(self):
+        """(radius, mass, material, body) of the particles the step is set for: those present and,
+        with a policy's smallest_radius, one virtual particle of that size per free material."""
         p = self.particles
         mass = np.where(p.inv_mass > 0, 1.0 / np.where(p.inv_mass > 0, p.inv_mass, 1.0), np.inf)
         radius, material, body = p.radius, p.material, p.body
@@ -535,6 +541,11 @@ class Simulation:
                                                              self.thickness)])
             material = np.concatenate([material, mats])
             body = np.concatenate([body, np.full(len(mats), -1)])
+        return radius, mass, material, body
+
+    def _time_step_report(self):
+        radius, mass, material, body = self._step_particles()
+        p = self.particles
         boundary = [int(m) for m in self.walls[:, W_MATERIAL]] + [int(m) for m in
                                                                  p.material[p.body >= 0]]
         boundary += [int(m) for mesh in self._mesh_geometry for m in np.unique(mesh[3])]

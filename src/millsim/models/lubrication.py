@@ -44,7 +44,13 @@ from .contact import FAST
 PI = math.pi
 
 INTEGRATORS = ("verlet", "verlet_half_step", "gear")
-SCHEMES = ("explicit", "implicit")
+SCHEMES = ("explicit", "implicit", "auto")
+# scheme "auto": implicit where the explicit scheme's recommended step is more than this factor
+# below the contacts' one, else explicit. Per simulated time an implicit step costs 4-8x a dry step
+# on the quick slice and 13x on the full LS1 at 1 Pa s; an explicit step with lubrication ~2x, on
+# top of its step ratio (full LS1, one thread, 2026-11-26: 0.1 Pa s explicit 6.6x dry at ratio 3.1,
+# 0.3 Pa s explicit 19x at ratio 8.9, 1 Pa s implicit 13x; docs/lubrication.md)
+AUTO_STEP_RATIO = 5.0
 IMPLICIT_ADVICE = "Lubrication(scheme='implicit'); scene parameter lubrication_scheme=implicit"
 # implicit scheme: relative tolerance on the preconditioned residual of the solve, and the most
 # iterations of one solve. On the quick stirred-mill slice 1e-3 changed the lubrication
@@ -586,8 +592,9 @@ class Lubrication(ParticleModel):
         h_min, h_max: inner and outer gap cutoffs as fractions of the smaller diameter of a pair
             (sphere-wall: of the sphere's diameter).
         scheme: ``explicit`` (forces with the contacts; the step resolves the squeeze relaxation
-            time, :meth:`step_bounds`) or ``implicit`` (backward-Euler impulses solved each step,
-            engine.implicit; no step bound; Verlet only).
+            time, :meth:`step_bounds`), ``implicit`` (backward-Euler impulses solved each step,
+            engine.implicit; no step bound; Verlet only) or ``auto`` (the Simulation picks the
+            cheaper of the two for its particles, :meth:`resolve`).
         tolerance, max_iterations: the implicit solve stops when the preconditioned residual
             r.D^-1 r is below tolerance^2 of its start, or after max_iterations.
     """
@@ -606,6 +613,22 @@ class Lubrication(ParticleModel):
     @property
     def implicit(self):
         return self.scheme == "implicit"
+
+    def resolve(self, contact_step, smallest):
+        """This model with scheme ``auto`` replaced by the one it stands for (itself otherwise):
+        implicit where the explicit scheme's recommended step is more than AUTO_STEP_RATIO below
+        ``contact_step``, the contacts' recommended step, else explicit (also with an integrator
+        other than Verlet, which the implicit scheme does not have). ``smallest``: as for
+        :meth:`step_bounds`."""
+        if self.scheme != "auto":
+            return self
+        explicit = Lubrication(self.eta, self.h_min, self.h_max, "explicit", self.tolerance,
+                               self.max_iterations)
+        bounds = explicit.step_bounds(smallest)
+        stiff = bounds and contact_step > AUTO_STEP_RATIO * bounds[0].recommended
+        scheme = "implicit" if stiff and smallest[4] == "verlet" else "explicit"
+        return Lubrication(self.eta, self.h_min, self.h_max, scheme, self.tolerance,
+                           self.max_iterations)
 
     @property
     def name(self):  # part of the compiled loop's identity

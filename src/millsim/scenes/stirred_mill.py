@@ -25,7 +25,7 @@ from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.kinematics import CYLINDER_INNER, CYLINDER_OUTER, PLANE
 from ..models import Interaction, Lubrication, Material, MaterialTable
 from ..models.contact import linear_contact_time
-from ..models.lubrication import SCHEMES, TOLERANCE, check_lubrication_params
+from ..models.lubrication import AUTO_STEP_RATIO, SCHEMES, TOLERANCE, check_lubrication_params
 from ..models.materials import damping_ratio
 from ..util.stats import block_mean_ci
 from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
@@ -49,8 +49,10 @@ PARAMS = (
     Param("h_max", 0.05, "lubrication outer cutoff, fraction of the smaller diameter of a pair",
           "1", 0.0, 0.5, True, True),
     Param("lubrication_scheme", "explicit", "integration of the lubrication: explicit (the "
-          "automatic step resolves the squeeze relaxation time at h_min) or implicit (backward-"
-          "Euler impulses solved each step; the contacts set the step; docs/lubrication.md)",
+          "automatic step resolves the squeeze relaxation time at h_min), implicit (backward-"
+          "Euler impulses solved each step; the contacts set the step) or auto (implicit where "
+          f"the explicit step would be over {AUTO_STEP_RATIO:g}x below the dry one, where it is "
+          "the cheaper; the case file says which ran; docs/lubrication.md)",
           choices=SCHEMES),
     Param("lubrication_tolerance", TOLERANCE, "implicit scheme: relative residual at which the "
           "solve of each step stops", "1", 0.0, 1.0, True, True),
@@ -607,6 +609,8 @@ class StirredMillCase(Case):
         }
         extra = {"contact_time_s": g["t_c"], "normal_stiffness": self.k_n,
                  "list_rebuilds": int(sim.counters[0])}
+        if sim.fluid is not None:  # the scheme that ran ("auto" picks one at the build)
+            extra.update(lubrication_scheme_used=sim.fluid.scheme)
         if sim.fluid is not None and sim.fluid.implicit:  # cost of the implicit solve
             extra.update(lubrication_iterations_per_step=float(sim.counters[2]) / max(sim.step, 1),
                          lubrication_iterations_max=int(sim.counters[3]))
