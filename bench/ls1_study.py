@@ -1,5 +1,6 @@
-"""The full-LS1 power study's case files: cost per case beside seed 004 Table 3, and the
-power, energy balance, typology and region shares of each case (issue 12, item 3).
+"""Stirred-mill case files, above all the full-LS1 power study's: cost per case beside seed 004
+Table 3, and the power, its drift, energy balance, typology and region shares of each case
+(issue 12, items 2-3).
 
     python bench/ls1_study.py CASE.nc [CASE.nc ...] [--json bench/out/full_ls1_study.json]
                               [--figure docs/figures/ls1_power_series.png]
@@ -42,8 +43,6 @@ def case_row(path):
 
     ds = read_case(path, "stirred_mill")
     p = json.loads(ds.attrs["parameters_json"])
-    if p["slice"]:
-        raise ValueError(f"{path}: a slice case; this study is the full chamber")
     sim_ms = float(ds.attrs["steps"]) * float(ds.attrs["dt"]) * 1e3
     s_per_ms = float(ds.attrs["compute_seconds"]) / sim_ms
     seed_h = SEED_TABLE3_H.get(int(p["rpm"]))
@@ -51,12 +50,15 @@ def case_row(path):
                               float(ds["statistics_start"]), int(p["ci_blocks"]))
     wet = p["eta"] > 0
     return dict(
-        case=str(path), eta=p["eta"], rpm=p["rpm"], scheme=p["lubrication_scheme"] if wet else "-",
+        case=str(path), domain=f"slice {p['scale']:g}" if p["slice"] else "full", eta=p["eta"],
+        rpm=p["rpm"], dt_factor=p["dt_factor"], seed=p["seed"],
+        scheme=p["lubrication_scheme"] if wet else "-",
         threads=int(ds.attrs["threads"]), dt=float(ds.attrs["dt"]), steps=int(ds.attrs["steps"]),
         sim_ms=sim_ms, revolutions=p["revolutions"], compute_s=float(ds.attrs["compute_seconds"]),
         s_per_sim_ms=s_per_ms, projected_h_per_52_5_ms=s_per_ms * SEED_SIM_MS / 3600,
-        # Table 3 gives eta = 0 and 1 Pa s only
-        seed_table3_h=seed_h[wet] if seed_h and p["eta"] in (0.0, 1.0) else None,
+        # Table 3 gives the full chamber at eta = 0 and 1 Pa s only
+        seed_table3_h=(seed_h[wet] if seed_h and p["eta"] in (0.0, 1.0) and not p["slice"]
+                       else None),
         seed_table3_processors=SEED_TABLE3_PROCESSORS[wet],
         cg_iterations_per_step=float(ds.attrs.get("lubrication_iterations_per_step", 0.0)),
         n_beads=int(ds["n_bead"]), n_agitator_particles=int(ds["n_agitator_particles"]),
@@ -77,16 +79,16 @@ def case_row(path):
 
 
 def table(rows):
-    head = ("| eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms (1 core) | "
+    head = ("| domain | seed | eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms (1 core) | "
             "projected 52.5 ms [h, 1 core] | seed 004 Table 3 [h] | CG it./step | net power [W] | "
             "drift over the window [W] | energy balance [%] | impact / shearing / rolling [%] |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
-    for r in sorted(rows, key=lambda r: (r["eta"], r["rpm"])):
+    for r in sorted(rows, key=lambda r: (r["domain"], r["eta"], r["rpm"], r["dt"], r["seed"])):
         t = r["typology"]
         seed = (f"{r['seed_table3_h']:g} ({r['seed_table3_processors']} proc.)"
                 if r["seed_table3_h"] else "-")
         lines.append(
-            f"| {r['eta']:g} | {r['rpm']:g} | {r['dt']:.3g} | {r['sim_ms']:.1f} | "
+            f"| {r['domain']} | {r['seed']} | {r['eta']:g} | {r['rpm']:g} | {r['dt']:.3g} | {r['sim_ms']:.1f} | "
             f"{r['s_per_sim_ms']:.3g} | {r['projected_h_per_52_5_ms']:.2f} | {seed} | "
             f"{r['cg_iterations_per_step']:.2f} | {r['net_power']:.3g} +- {r['net_power_ci']:.2g} | "
             f"{r['window_drift']:+.2g} +- {r['window_drift_ci']:.2g} | "

@@ -83,7 +83,7 @@ BAD_MATERIALS = "materials: [1, 2\n"  # not YAML
     (["stirred_mill", "--out", "c.nc", "--set", "n_beads=1000000000000"], "n_beads: "),
     # the lubrication scheme and its solve
     (["stirred_mill", "--out", "c.nc", "--set", "lubrication_scheme=crank"],
-     "lubrication_scheme: must be one of ['explicit', 'implicit'], got 'crank'"),
+     "lubrication_scheme: must be one of ['explicit', 'implicit', 'auto'], got 'crank'"),
     (["stirred_mill", "--out", "c.nc", "--set", "lubrication_tolerance=0"],
      "lubrication_tolerance: "),
     (["ballmill2d", "--out", "c.nc", "--set", "grain_radius=1e-7", "--set", "sieve_radius=1e-8"],
