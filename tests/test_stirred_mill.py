@@ -309,6 +309,26 @@ def test_replicates_pool_to_their_weighted_mean_and_scatter():
         pool_replicates(_replicates([1.0, 2.0], [0.1, 0.0]))
 
 
+def test_stage_2_and_3_tables_say_how_their_intervals_were_pooled(tmp_path):
+    """The replicate scale and degrees of freedom behind each point's interval reach the stage 2
+    and 3 tables (as in stage 1's): two seeds per point, chi^2 by hand as above."""
+    rows = [_replicates([p, p + d], [0.1, 0.1], eta=e, rpm=r)
+            for (e, r, p, d) in ((0.0, 2500.0, 1.0, 0.1), (0.01, 2500.0, 1.2, 0.0),
+                                 (0.03, 2500.0, 1.5, 0.0), (0.03, 3500.0, 2.0, 0.0))]
+    cases = pool_replicates(pd.concat(rows))
+    # chi^2 = 2 (0.05 x 1.96 / 0.1)^2 from the one point whose seeds differ; dof = 4
+    scale = math.sqrt(2 * (0.05 * 1.96 / 0.1) ** 2 / 4)
+    ref_path = tmp_path / "ref.csv"
+    ref_path.write_text("rpm,fluid,eta_exp,net_power,source\n2500,dry,0,1.05,t\n"
+                        "2500,A,0.03,1.5,t\n3500,A,0.03,2.0,t\n")
+    ref = read_reference(ref_path)
+    visc, _ = calibrate_viscosity(cases, ref, 0.3, 2500.0)
+    pred = predict(cases, ref, 0.3, {"A": 0.03})
+    for table in (visc, pred):
+        assert table["replicate_scale"].to_numpy() == pytest.approx(scale)
+        assert (table["replicate_dof"] == 4).all() and (table["replicates"] == 2).all()
+
+
 @pytest.mark.parametrize("understated", [3.0, 1.0])
 def test_replicate_interval_covers_the_true_power(understated):
     """Three normal replicates around a known power whose block intervals are too small by a

@@ -252,6 +252,12 @@ def calibrate_friction(cases, ref):
     return cases.sort_values(["friction", "rpm"]), summary, choice
 
 
+def _pooling(row):
+    """The replicate scale and degrees of freedom of a pooled case row ({} for unpooled cases):
+    the stage 2 and 3 tables carry them, so that a reader sees how their intervals were formed."""
+    return {k: row[k] for k in ("replicate_scale", "replicate_dof") if k in row}
+
+
 def calibrate_viscosity(cases, ref, friction, rpm):
     """Stage 2 at one speed. Returns (residual table, choice dict per fluid)."""
     sel = cases[np.isclose(cases["friction"], friction) & np.isclose(cases["rpm"], rpm)
@@ -267,10 +273,11 @@ def calibrate_viscosity(cases, ref, friction, rpm):
         res = sel["net_power"].to_numpy() - target
         eta = sel["eta"].to_numpy()
         first = len(rows)
-        reps = sel["replicates"] if "replicates" in sel else [1] * len(sel)
-        for e, p, ci, n, r in zip(eta, sel["net_power"], sel["net_power_ci"], reps, res):
-            rows.append(dict(fluid=fluid, eta_exp=float(fref["eta_exp"].iloc[0]), eta_sim=e,
-                             rpm=rpm, net_power=p, net_power_ci=ci, replicates=int(n),
+        for (_, c), r in zip(sel.iterrows(), res):
+            rows.append(dict(fluid=fluid, eta_exp=float(fref["eta_exp"].iloc[0]),
+                             eta_sim=c["eta"], rpm=rpm, net_power=c["net_power"],
+                             net_power_ci=c["net_power_ci"],
+                             replicates=int(c.get("replicates", 1)), **_pooling(c),
                              reference=target, reference_ci=target_ci, residual=r))
         k = int(np.argmin(res**2))
         # refined: where the power, linear in log eta between grid points, crosses the reference
@@ -298,7 +305,7 @@ def predict(cases, ref, friction, etas):
             target = _match(fref, c["rpm"])
             rows.append(dict(fluid=fluid, eta_sim=eta, rpm=c["rpm"], net_power=c["net_power"],
                              net_power_ci=c["net_power_ci"], replicates=int(c.get("replicates", 1)),
-                             reference=target,
+                             **_pooling(c), reference=target,
                              reference_ci=_match(fref, c["rpm"], "net_power_ci"),
                              residual=c["net_power"] - target))
     return pd.DataFrame(rows)
