@@ -119,7 +119,7 @@ def figure(rows, out):
                 ax.hlines(r["net_power"], t0, t[-1], color=colour, lw=2)
                 ax.fill_between([t0, t[-1]], r["net_power"] - r["net_power_ci"],
                                 r["net_power"] + r["net_power_ci"], color=colour, alpha=0.2, lw=0)
-                ax.axvline(t0, color="0.5", lw=0.8, ls="--")
+            ax.axvline(t0, color="0.5", lw=0.8, ls="--")  # the window starts alike at one speed
             ax.set(xlabel="time [ms]", ylabel="agitator power [W]", title=f"{rpm:g} min$^{{-1}}$",
                    ylim=(0, None))
         axes[0].legend(handles=[handles[e] for e in etas], title="simulation viscosity")

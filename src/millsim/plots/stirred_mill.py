@@ -40,6 +40,12 @@ def domain(ds):
     return f"full chamber, {disks} disks, scale {scale:g}{beads}{spheres}"
 
 
+def _domain_suptitle(fig, ds):
+    where = domain(ds)
+    if where:
+        fig.suptitle(where, fontsize=9)
+
+
 def _with_domain(title, ds):
     where = domain(ds)
     return f"{title}\n{where}" if where else title
@@ -58,8 +64,7 @@ def power(ds, out):
     fr = ds.attrs.get("param_friction", "")
     ax.set(xlabel=RPM, ylabel=POWER, ylim=(0, None),
            title=f"Net power vs speed and viscosity ({MU} = {fr})")
-    if domain(ds):
-        fig.suptitle(domain(ds), fontsize=9)
+    _domain_suptitle(fig, ds)
     ax.legend()
     fig.savefig(out)
 
@@ -108,8 +113,7 @@ def typology_figure(ds):
             ax2.axhline(sign * tol, color="r", lw=0.8, ls="--")
     ax2.set_xticks(x, [lab.replace(", ", "\n") for lab, _ in cases])
     ax2.grid(False, axis="x")
-    if domain(ds):
-        fig.suptitle(domain(ds), fontsize=9)
+    _domain_suptitle(fig, ds)
     return fig
 
 
