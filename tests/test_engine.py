@@ -186,6 +186,33 @@ def test_overlap_guard():
         sim.run(5)
 
 
+@pytest.mark.parametrize("peak", [0.74, 0.76])
+def test_overlap_guard_against_the_hertz_peak_of_a_head_on_hit(peak):
+    """Two equal elastic Hertz spheres meet head on at the speed whose analytic peak overlap
+    (Johnson 1985, 11.2: delta = (15 m* v^2 / (16 sqrt(R*) E*))^(2/5)) is ``peak`` radii, at half
+    the step limit: below the 0.75 guard the hit runs through, above it the run stops naming the
+    contact's softness, not dt, as the cause."""
+    radius, density, young, poisson = 1e-3, 2500.0, 5e6, 0.3
+    m_eff = density * 4.0 / 3.0 * math.pi * radius**3 / 2
+    r_eff, e_eff = radius / 2, young / (2 * (1 - poisson**2))
+    speed = math.sqrt((peak * radius) ** 2.5 * 16 * math.sqrt(r_eff) * e_eff / (15 * m_eff))
+    half = speed / 2
+    sim = Simulation(PhysicsSpec(dim=3, gravity=False), _table(restitution=1.0, friction=0.0),
+                     x=[[0, 0, 0], [2.1e-3, 0, 0]], radius=[radius, radius], material="m",
+                     v=[[half, 0, 0], [-half, 0, 0]], guards=Guards(max_overlap=0.75),
+                     step=StepPolicy(impact_speed=speed))
+    sim.set_time_step(dt=0.5 * sim.dt_report.limit)
+    steps = int(3 * 2.94 * peak * radius / speed / sim.dt)  # past the contact (t_c = 2.94 delta/v)
+    if peak < 0.75:
+        sim.run(steps)
+        assert sim.particles.v[0, 0] == pytest.approx(-half, rel=1e-3)  # elastic rebound
+    else:
+        with pytest.raises(SimulationError, match=r"particle 0 and particle 1 exceeds 0.75 of the "
+                           r"smaller radius; dt is 0.5 of its limit, so not the "
+                           r"cause: the contact is too soft"):
+            sim.run(steps)
+
+
 def test_runaway_speed_guard():
     spec = PhysicsSpec(dim=3, gravity=False)
     sim = Simulation(spec, _table(), x=[[0, 0, 0]], radius=[1e-3], material="m", v=[[300.0, 0, 0]],
