@@ -247,8 +247,9 @@ def full_ls1_study():
     _, d = files[0]
     return ["## Full LS1 power study: cost per case beside seed 004 Table 3", "",
             f"{_command(d)}: the case files of `config/ls1_power.yaml`, one thread per case, two "
-            "cases at a time on this VM. Cost = the compiled loop's seconds per simulated ms on "
-            "one core, projected to the seed's 52.5 ms; Table 3 ran eta = 0 on 1 processor and "
+            "to four cases at a time on this VM's 2 cores (the last three cases two at a time: "
+            "their costs are near one idle core's). Cost = the compiled loop's seconds per "
+            "simulated ms on one core, projected to the seed's 52.5 ms; Table 3 ran eta = 0 on 1 processor and "
             "1 Pa s on 8 (it gives no other viscosity). Power: mean over the averaging window "
             "with its 95 % block interval; analysis in docs/results/stirred_mill.md.", "",
             table(d["cases"]), ""]
