@@ -54,7 +54,8 @@ def case_row(path):
         rpm=p["rpm"], dt_factor=p["dt_factor"], seed=p["seed"],
         scheme=p["lubrication_scheme"] if wet else "-",
         threads=int(ds.attrs["threads"]), dt=float(ds.attrs["dt"]), steps=int(ds.attrs["steps"]),
-        sim_ms=sim_ms, revolutions=p["revolutions"], compute_s=float(ds.attrs["compute_seconds"]),
+        sim_ms=sim_ms, revolutions=p["revolutions"], ramp_revolutions=p["ramp_revolutions"],
+        compute_s=float(ds.attrs["compute_seconds"]),
         s_per_sim_ms=s_per_ms, projected_h_per_52_5_ms=s_per_ms * SEED_SIM_MS / 3600,
         # Table 3 gives the full chamber at eta = 0 and 1 Pa s only
         seed_table3_h=(seed_h[wet] if seed_h and p["eta"] in (0.0, 1.0) and not p["slice"]
@@ -75,7 +76,32 @@ def case_row(path):
                                                   ds["collision_frequency_relative"].values)},
         engine_hash=ds.attrs["engine_hash"],
         series=dict(time=ds["time"].values.tolist(), power=ds["agitator_power"].values.tolist()),
+        revolution_means=revolution_means(ds["time"].values, ds["agitator_power"].values,
+                                          p["rpm"]),
     )
+
+
+def revolution_means(time, power, rpm):
+    """Mean agitator power [W] over each whole revolution from the start (a record at t stands
+    for the interval that ends at t; a last, partial revolution is left out)."""
+    period = 60.0 / rpm
+    slack = 1e-9 * period  # record times are sums of steps, not exact multiples of the period
+    whole = int(np.floor(time[-1] / period + 1e-9))
+    return [float(power[(time > k * period + slack) & (time <= (k + 1) * period + slack)].mean())
+            for k in range(whole)]
+
+
+def revolution_table(rows):
+    """Mean power over each revolution: how the start-up settles."""
+    n = max(len(r["revolution_means"]) for r in rows)
+    head = ("| eta [Pa s] | rpm | ramp [rev] | " + " | ".join(f"rev {k + 1} [W]" for k in range(n))
+            + " |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in sorted(rows, key=lambda r: (r["eta"], r["rpm"])):
+        cells = [f"{m:.3g}" for m in r["revolution_means"]] + ["-"] * (n - len(r["revolution_means"]))
+        lines.append(f"| {r['eta']:g} | {r['rpm']:g} | {r['ramp_revolutions']:g} | "
+                     + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def table(rows):
@@ -136,6 +162,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     rows = [case_row(p) for p in args.cases]
     print(table(rows))
+    print()
+    print(revolution_table(rows))
     if args.json:
         command = "python bench/ls1_study.py " + " ".join(argv if argv is not None else sys.argv[1:])
         Path(args.json).write_text(json.dumps(dict(command=command, cases=rows), indent=1))
