@@ -83,10 +83,11 @@ def case_row(path):
 
 def revolution_means(time, power, rpm):
     """Mean agitator power [W] over each whole revolution from the start (a record at t stands
-    for the interval that ends at t; a last, partial revolution is left out)."""
+    for the interval that ends at t; a last revolution short of more than 2 % is left out)."""
     period = 60.0 / rpm
     slack = 1e-9 * period  # record times are sums of steps, not exact multiples of the period
-    whole = int(np.floor(time[-1] / period + 1e-9))
+    # a case ends on its last whole record, up to a record short of the revolutions asked
+    whole = int(np.floor(time[-1] / period + 0.02))
     return [float(power[(time > k * period + slack) & (time <= (k + 1) * period + slack)].mean())
             for k in range(whole)]
 
