@@ -5,7 +5,9 @@ can be told from a head-on impact or a step too large.
 
     python bench/guard_diagnosis.py X.nc.ckpt [--top 12]
 
-The checkpoint must come from the same code (it is a pickle of the running case).
+The checkpoint must come from the same code (it is a pickle of the running case); another is
+refused with the difference named. The chunk loop is the driver's (scenes/driver.py ``drive``),
+without its recording and saving, so that the state at the stop stays at hand.
 """
 
 import argparse
@@ -20,10 +22,13 @@ def main(argv=None):
     ap.add_argument("--top", type=int, default=12)
     args = ap.parse_args(argv)
     from millsim.engine import SimulationError
+    from millsim.io import read_checkpoint
 
     with open(args.checkpoint, "rb") as fh:
-        pickle.load(fh)  # the header: parameters and versions
-        case = pickle.load(fh)["case"]
+        header = pickle.load(fh)
+    # the reader refuses a checkpoint of other code; scene and parameters are the file's own
+    key = {"scene": header["scene"], "parameters": header["parameters"]}
+    case = read_checkpoint(args.checkpoint, key)["case"]
     sim = case.sim
     print(f"resumed at step {sim.step} (t = {sim.time:.6g} s)")
     try:

@@ -249,8 +249,8 @@ def full_ls1_study():
             f"{_command(d)}: the case files of `config/ls1_power.yaml`, one thread per case, two "
             "to four cases at a time on this VM's 2 cores (the last three cases two at a time: "
             "their costs are near one idle core's). Cost = the compiled loop's seconds per "
-            "simulated ms on one core, projected to the seed's 52.5 ms; Table 3 ran eta = 0 on 1 processor and "
-            "1 Pa s on 8 (it gives no other viscosity). Power: mean over the averaging window "
+            "simulated ms on one core, projected to the seed's 52.5 ms; Table 3 ran eta = 0 on "
+            "1 processor and 1 Pa s on 8 (it gives no other viscosity). Power: mean over the averaging window "
             "with its 95 % block interval; analysis in docs/results/stirred_mill.md.", "",
             table(d["cases"]), ""]
 
