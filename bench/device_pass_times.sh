@@ -14,12 +14,12 @@ for ph in ballmill2d hertz_tavares beads_lubrication; do
   python3 bench/pass_times.py --physics $ph --n 3000 --steps 5 --threads 1 2 --json /tmp/warm_$ph.json > /dev/null 2> $OUT/warm_$ph.err &
 done
 wait; echo "compiled after $(( $(date +%s) - T0 )) s"; tail -n 3 $OUT/warm_*.err
-for ph in ballmill2d hertz_tavares beads_lubrication; do
+for ph in ${PHYS:-ballmill2d hertz_tavares beads_lubrication}; do
   timeout 110 python3 bench/pass_times.py --physics $ph --n $N --threads $TH --json $OUT/pass_times_$ph.json 2>&1 | grep -v '^{'
   echo "$ph done after $(( $(date +%s) - T0 )) s"
 done
 for v in "OMP_PROC_BIND=close OMP_PLACES=cores" "OMP_WAIT_POLICY=active"; do
   name=$(echo $v | cut -d= -f1)
-  env $v timeout 60 python3 bench/pass_times.py --physics ballmill2d hertz_tavares --n $N --threads $TV --json $OUT/pass_times_$name.json 2>&1 | grep -v '^{'
+  env $v timeout 120 python3 bench/pass_times.py --n $N --threads $TV --json $OUT/pass_times_$name.json 2>&1 | grep -v '^{'
   echo "$v done after $(( $(date +%s) - T0 )) s"
 done

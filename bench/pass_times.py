@@ -3,8 +3,9 @@
     python bench/pass_times.py [--physics ballmill2d hertz_tavares beads_lubrication]
                                [--n 100000] [--steps 200] [--threads 1 2 4 8 16] [--json FILE]
 
-For each physics of ``bench/scaling.py`` (built as there, one process per physics, the threads
-set with ``numba.set_num_threads`` between rows) it runs, at each thread count:
+For each physics of ``bench/scaling.py`` (built as there, one process per physics, built again
+for each row so that every row starts from the same state, 50 steps after the build) it runs,
+at each thread count (``numba.set_num_threads``):
 
 1. the compiled step loop as the engine runs it (``loop``: 20 warm-up steps, then ``--steps``
    timed), with the list rebuilds inside it timed (``rebuild``), and the process's minor page
@@ -191,13 +192,18 @@ def run_rows(physics, n, steps, thread_counts):
     from millsim.engine import simulation as engine_simulation
 
     rebuild_s = scaling.time_list_rebuilds()
-    numba.set_num_threads(max(thread_counts))
-    sim, info = scaling.BUILDERS[physics](n, 1.0, 0.1, 1000.0)
 
     def drop_events(s):
         s.pop_events()
 
-    sim.run(50, chunk=50, threads=max(thread_counts), on_events=drop_events)
+    def fresh(threads):
+        """The system as built, 50 steps run: every row starts from the same state."""
+        numba.set_num_threads(threads)
+        sim, info = scaling.BUILDERS[physics](n, 1.0, 0.1, 1000.0)
+        sim.run(50, chunk=50, threads=threads, on_events=drop_events)
+        return sim, info
+
+    sim, info = fresh(thread_counts[0])
     engine_runner = engine_simulation.chunk_runner(sim.spec, sim.law, sim.breakage, sim.fluid)
     layout = L.Layout(sim.law.spring_columns,
                       len(sim.breakage.contact_columns) if sim.breakage else 0,
@@ -220,7 +226,10 @@ def run_rows(physics, n, steps, thread_counts):
     timed_scratch(clock)
     _warm_rebuild_front(sim)
     rows = []
-    for threads in thread_counts:
+    for row_index, threads in enumerate(thread_counts):
+        if row_index:
+            L.rebuilt_contacts = engine_rebuild
+            sim, info = fresh(threads)
         numba.set_num_threads(threads)
         # the engine's compiled loop
         L.rebuilt_contacts = engine_rebuild
