@@ -75,6 +75,34 @@ def test_verlet_list_at_wide_size_ratios_equals_brute_force(periodic):
     assert sum(1 for i, j in expected if min(r[i], r[j]) < 0.5e-3 and max(r[i], r[j]) > 3e-3) > 50
 
 
+def test_verlet_list_over_several_front_blocks_equals_kd_tree():
+    """The rebuild's front (bounding box, size classes, largest radius per level) is reduced over
+    blocks of FRONT_BLOCK particles: with the largest spheres, a size class of their own, only in
+    the last block, a combine that dropped a block would size that level's search by the others
+    and miss their pairs. Reference: scipy's k-d tree, then the exact cut r_i + r_j + skin."""
+    from scipy.spatial import cKDTree
+
+    from millsim.engine.neighbours import FRONT_BLOCK
+
+    rng = np.random.default_rng(17)
+    n, box, skin = 3 * FRONT_BLOCK + 600, 0.04, 0.2e-3
+    x = rng.uniform(0, box, (n, 3))
+    r = rng.uniform(0.3e-3, 0.5e-3, n)
+    large = n - 1 - np.arange(0, 80, 10)  # in the last block only
+    r[large] = 4e-3
+    body = -np.ones(n, dtype=np.int32)
+    c = empty_contacts(n, 3)
+    start, nbr, *_ = build_verlet(x, r, body, skin, 3, np.zeros(3), np.zeros(3), c.start, c.nbr,
+                                  c.state)
+    i, j = cKDTree(x).query_pairs(2 * r.max() + skin, output_type="ndarray").T
+    d = x[i] - x[j]
+    cut = r[i] + r[j] + skin
+    keep = (d * d).sum(1) < cut * cut
+    expected = {(int(min(a, b)), int(max(a, b))) for a, b in zip(i[keep], j[keep])}
+    assert _pairs(start, nbr) == expected
+    assert sum(1 for a, b in expected if b in set(large.tolist())) > 100  # they have neighbours
+
+
 def test_contact_state_survives_rebuild():
     rng = np.random.default_rng(2)
     n = 200

@@ -39,24 +39,43 @@ def min_image(d, a, box_len):
     return d
 
 
-@njit(cache=True)
+# Particles per block of the rebuild's front (bounding box, size classes, binning): each block's
+# minimum or maximum is found in parallel and the blocks' are combined in order. Minima and maxima
+# are exact, so the list does not depend on the blocks or the threads; on 16 threads the serial
+# front took half the 2D mill's rebuild (docs/results/scaling.md).
+FRONT_BLOCK = 4096
+
+
+@njit(parallel=True, cache=True)
 def _extent(x, box_lo, box_len):
     """Lower corner and extent of the grid: the periodic box, or the particles' bounding box."""
     lo = np.zeros(3)
     ext = np.zeros(3)
     n = x.shape[0]
+    n_blocks = (n + FRONT_BLOCK - 1) // FRONT_BLOCK
+    block_min = np.empty((n_blocks, 3))
+    block_max = np.empty((n_blocks, 3))
+    for b in prange(n_blocks):
+        for a in range(3):
+            mn = np.inf
+            mx = -np.inf
+            for i in range(b * FRONT_BLOCK, min(n, (b + 1) * FRONT_BLOCK)):
+                mn = min(mn, x[i, a])
+                mx = max(mx, x[i, a])
+            block_min[b, a] = mn
+            block_max[b, a] = mx
     for a in range(3):
         if box_len[a] > 0.0:
             lo[a] = box_lo[a]
             ext[a] = box_len[a]
         elif n > 0:
-            mn = np.inf
-            mx = -np.inf
-            for i in range(n):
-                mn = min(mn, x[i, a])
-                mx = max(mx, x[i, a])
-            lo[a] = mn
-            ext[a] = mx - mn
+            lowest = np.inf
+            highest = -np.inf
+            for b in range(n_blocks):
+                lowest = min(lowest, block_min[b, a])
+                highest = max(highest, block_max[b, a])
+            lo[a] = lowest
+            ext[a] = highest - lowest
     return lo, ext
 
 
@@ -87,7 +106,7 @@ def _cell_index(xa, lo, size, ncell):
     return min(max(int((xa - lo) / size), 0), ncell - 1)
 
 
-@njit(cache=True)
+@njit(parallel=True, cache=True)
 def _size_levels(radius):
     """Level of each particle and the number of levels: radius classes a factor 2 apart.
 
@@ -98,31 +117,47 @@ def _size_levels(radius):
     """
     n = radius.shape[0]
     level = np.zeros(n, dtype=np.int64)
+    n_blocks = (n + FRONT_BLOCK - 1) // FRONT_BLOCK
+    block_min = np.empty(n_blocks)
+    block_max = np.empty(n_blocks)
+    for b in prange(n_blocks):
+        mn = np.inf
+        mx = 0.0
+        for i in range(b * FRONT_BLOCK, min(n, (b + 1) * FRONT_BLOCK)):
+            if radius[i] > 0.0:
+                mn = min(mn, radius[i])
+            mx = max(mx, radius[i])
+        block_min[b] = mn
+        block_max[b] = mx
     rmin = np.inf
     rmax = 0.0
-    for i in range(n):
-        if radius[i] > 0.0:
-            rmin = min(rmin, radius[i])
-        rmax = max(rmax, radius[i])
+    for b in range(n_blocks):
+        rmin = min(rmin, block_min[b])
+        rmax = max(rmax, block_max[b])
     if n == 0 or rmax <= 0.0 or rmax < 2.0 * rmin:
         return level, 1
     nclass = 1 + int(math.floor(math.log2(rmax / rmin)))
-    used = np.zeros(nclass, dtype=np.int64)
-    for i in range(n):
-        if radius[i] > 0.0:
-            level[i] = min(int(math.floor(math.log2(radius[i] / rmin))), nclass - 1)
-        used[level[i]] = 1
+    block_used = np.zeros((n_blocks, nclass), dtype=np.int64)
+    for b in prange(n_blocks):
+        for i in range(b * FRONT_BLOCK, min(n, (b + 1) * FRONT_BLOCK)):
+            if radius[i] > 0.0:
+                level[i] = min(int(math.floor(math.log2(radius[i] / rmin))), nclass - 1)
+            block_used[b, level[i]] = 1
     rank = np.zeros(nclass, dtype=np.int64)
     nlev = 0
     for c in range(nclass):
         rank[c] = nlev
-        nlev += used[c]
-    for i in range(n):
-        level[i] = rank[level[i]]
+        for b in range(n_blocks):
+            if block_used[b, c]:
+                nlev += 1
+                break
+    for b in prange(n_blocks):
+        for i in range(b * FRONT_BLOCK, min(n, (b + 1) * FRONT_BLOCK)):
+            level[i] = rank[level[i]]
     return level, nlev
 
 
-@njit(cache=True)
+@njit(parallel=True, cache=True)
 def _bin_levels(x, radius, level, nlev, skin, lo, ext, box_len, dim, max_cells):
     """One cell grid per level, binned into shared CSR arrays.
 
@@ -130,9 +165,15 @@ def _bin_levels(x, radius, level, nlev, skin, lo, ext, box_len, dim, max_cells):
     ``cell_base[l] ... cell_base[l + 1] - 1`` of ``cstart``; members are particle indices.
     """
     n = x.shape[0]
+    n_blocks = (n + FRONT_BLOCK - 1) // FRONT_BLOCK
+    block_max = np.zeros((n_blocks, nlev))
+    for b in prange(n_blocks):
+        for i in range(b * FRONT_BLOCK, min(n, (b + 1) * FRONT_BLOCK)):
+            block_max[b, level[i]] = max(block_max[b, level[i]], radius[i])
     rmax = np.zeros(nlev)
-    for i in range(n):
-        rmax[level[i]] = max(rmax[level[i]], radius[i])
+    for b in range(n_blocks):
+        for lv in range(nlev):
+            rmax[lv] = max(rmax[lv], block_max[b, lv])
     size = np.empty((nlev, 3))
     ncell = np.empty((nlev, 3), dtype=np.int64)
     cell_base = np.zeros(nlev + 1, dtype=np.int64)
@@ -140,12 +181,14 @@ def _bin_levels(x, radius, level, nlev, skin, lo, ext, box_len, dim, max_cells):
         size[lv], ncell[lv] = _cell_grid(ext, 2.0 * rmax[lv] + skin, box_len, dim, max_cells)
         cell_base[lv + 1] = cell_base[lv] + ncell[lv, 0] * ncell[lv, 1] * ncell[lv, 2]
     cell_of = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        lv = level[i]
-        c = 0
-        for a in range(2, -1, -1):
-            c = c * ncell[lv, a] + _cell_index(x[i, a], lo[a], size[lv, a], ncell[lv, a])
-        cell_of[i] = cell_base[lv] + c
+    for b in prange(n_blocks):
+        for i in range(b * FRONT_BLOCK, min(n, (b + 1) * FRONT_BLOCK)):
+            lvi = level[i]
+            ci = 0
+            for a in range(2, -1, -1):
+                ci = ci * ncell[lvi, a] + _cell_index(x[i, a], lo[a], size[lvi, a], ncell[lvi, a])
+            cell_of[i] = cell_base[lvi] + ci
+    # the counting sort stays serial: members of a cell in index order
     ntot = cell_base[nlev]
     cstart = np.zeros(ntot + 1, dtype=np.int64)
     for i in range(n):
