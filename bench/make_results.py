@@ -472,6 +472,44 @@ def strong_scaling():
     return text
 
 
+def pass_times():
+    files = _load("pass_times*.json") + _load("ab_front*.json")
+    text = ["## Each parallel pass per thread count", ""]
+    if not files:
+        return text + ["No `pass_times*.json` in bench/out.", ""]
+    text += ["Seconds for the timed steps: the engine's loop and its list rebuilds, then each pass "
+             "driven from Python (`bench/pass_times.py`); speed-up against the first row of the "
+             "same physics in the same file; front = the rebuild's bounding box, size levels and "
+             "cell binning (run once more outside the rebuild there); rest = the rebuild's scans, "
+             "state merge and reverse index. `ab_front*`: before / after the parallel front "
+             "(`bench/device_ab_front.sh`). Discussion: docs/results/scaling.md.", ""]
+    for p, d in files:
+        env = " ".join(f"{k}={v}" for k, v in sorted(d.get("env", {}).items())
+                       if not k.startswith("NUMBA"))
+        text += [f"`{p.name}` ({_command(d)}); {d.get('machine') or str(d.get('cpu_count')) + ' logical CPUs'}"
+                 + (f"; environment: {env}" if env else "") + ".", ""]
+        rows, first = [], {}
+        for r in d["rows"]:
+            if "passes" not in r:  # ab_front: one row per run
+                rows.append([r["tree"], r["physics"], r["threads"], f"{r['loop_s']:.3f}", "-",
+                             f"{r['rebuild_s']:.3f}", "-", "-", "-", "-"])
+                continue
+            one = first.setdefault(r["physics"], r)
+            q = r["passes"]
+            front = sum(q.get(k, 0.0) for k in ("rebuild: bounding box", "rebuild: size levels",
+                                                "rebuild: cell binning"))
+            rest = q.get("rebuild: scans, merge, reverse index")
+            rows.append(["-", r["physics"], r["threads"], f"{r['loop_s']:.3f}",
+                         f"{one['loop_s'] / r['loop_s']:.2f}",
+                         f"{r['rebuild_s']:.3f} ({r['rebuild_s'] / r['loop_s']:.0%})",
+                         f"{q['pair pass']:.3f}", f"{q['particle pass']:.3f}",
+                         f"{rest:.3f}" if rest else "-", f"{front:.3f}" if front else "-"])
+        text += [_table(["tree", "physics", "threads", "loop [s]", "speed-up", "rebuilds [s]",
+                         "pair pass [s]", "particle pass [s]", "rebuild rest [s]",
+                         "rebuild front [s]"], rows), ""]
+    return text
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(HERE / "RESULTS.md"))
@@ -487,7 +525,7 @@ def main(argv=None):
             "run (millsim / LIGGGHTS, variant / lean), which the interleaving of the measurements "
             "makes largely load-independent. Timings older than the load recording say \"not "
             "recorded\".", ""]
-    for section in (summary, throughput, strong_scaling, leave_out, scaling, ls1,
+    for section in (summary, throughput, strong_scaling, pass_times, leave_out, scaling, ls1,
                     full_ls1_study, lubrication, size_ratio, mesh_walls):
         text += section()
     Path(args.out).write_text("\n".join(text).rstrip() + "\n")

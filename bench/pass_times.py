@@ -18,7 +18,8 @@ at each thread count (``numba.set_num_threads``):
    share at every thread count scales with the loop; one whose share grows is what stops it.
 
 The Python-driven steps cost one call per pass more than the compiled loop (tens of
-microseconds a step); the ``loop`` row beside them says how far their sum is from the engine's.
+microseconds a step), and the rebuild's front runs twice there (timed alone, then inside the
+rebuild); the ``loop`` row beside them says how far their sum is from the engine's.
 Only the explicit step (no implicit lubrication: the scaling physics do not use it).
 """
 
