@@ -49,7 +49,7 @@ def timed_parts(parts, spec, layout, clock):
     start_block, reductions, near_walls_block = (parts.start_block, parts.reductions,
                                                  parts.near_walls_block)
     TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
-    BLOCK, N_AUDIT = L.BLOCK, L.N_AUDIT
+    BLOCK = L.BLOCK
 
     @njit(parallel=L.PRANGE_ONLY, fastmath=L.FAST)
     def pair_pass(rows, n_blocks, step_now, dt, P, C, R, err, S, bs, fp):
