@@ -206,17 +206,7 @@ def run_rows(physics, n, steps, thread_counts):
 
     sim, info = fresh(thread_counts[0])
     engine_runner = engine_simulation.chunk_runner(sim.spec, sim.law, sim.breakage, sim.fluid)
-    layout = L.Layout(sim.law.spring_columns,
-                      len(sim.breakage.contact_columns) if sim.breakage else 0,
-                      len(sim.breakage.wall_columns) if sim.breakage else 0,
-                      len(sim.breakage.slot_columns) if sim.breakage else 0,
-                      sim.fluid is not None, sim.spec.energy_audit,
-                      sim.fluid is not None and sim.fluid.implicit)
-    key = (f"{sim.spec}|{sim.law.name}|{sim.breakage.name if sim.breakage else ''}|"
-           f"{sim.fluid.name if sim.fluid else ''}|{layout}")
-    parts = L._Parts(sim.spec, sim.law,
-                     sim.breakage.kernels if sim.breakage else L.NO_BREAKAGE,
-                     sim.fluid.kernels if sim.fluid else L.NO_FLUID, layout, key)
+    parts, layout = L.chunk_parts(sim.spec, sim.law, sim.breakage, sim.fluid)
     clock = {}
     python_runner = L.ChunkRunner(timed_parts(parts, sim.spec, layout, clock),
                                   engine_runner.collect, layout, engine_runner.rolling,

@@ -236,6 +236,12 @@ def build_chunk_runner(spec, law, breakage=None, fluid=None):
         law: the contact law (``force`` kernel, ``spring_columns``, ``rolling_column``).
         breakage, fluid: model objects (:class:`~millsim.engine.models.ParticleModel`) or None.
     """
+    return chunk_parts(spec, law, breakage, fluid)[0].runner
+
+
+def chunk_parts(spec, law, breakage=None, fluid=None):
+    """The sub-kernels of one physics variant and their column layout: ``(_Parts, Layout)``.
+    The chunk runner composes them; bench/pass_times.py times its passes one by one."""
     layout = Layout(law.spring_columns,
                     len(breakage.contact_columns) if breakage else 0,
                     len(breakage.wall_columns) if breakage else 0,
@@ -245,7 +251,7 @@ def build_chunk_runner(spec, law, breakage=None, fluid=None):
            f"{fluid.name if fluid else ''}|{layout}")
     parts = _Parts(spec, law, breakage.kernels if breakage else NO_BREAKAGE,
                    fluid.kernels if fluid else NO_FLUID, layout, key)
-    return parts.runner
+    return parts, layout
 
 
 class _Parts:
