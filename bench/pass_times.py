@@ -218,12 +218,10 @@ def run_rows(physics, n, steps, thread_counts):
     _warm_rebuild_front(sim)
     rows = []
     for row_index, threads in enumerate(thread_counts):
+        L.rebuilt_contacts = engine_rebuild  # the engine's own rebuild for the build and its loop
         if row_index:
-            L.rebuilt_contacts = engine_rebuild
             sim, info = fresh(threads)
         numba.set_num_threads(threads)
-        # the engine's compiled loop
-        L.rebuilt_contacts = engine_rebuild
         sim.run(20, chunk=20, threads=threads, on_events=drop_events)
         w0, k0, u0, load0 = sim.wall_seconds, int(sim.counters[0]), usage(), os.getloadavg()
         rebuild_s[0] = 0.0
