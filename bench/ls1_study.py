@@ -146,9 +146,14 @@ def figure(rows, out):
                 ax.hlines(r["net_power"], t0, t[-1], color=colour, lw=2)
                 ax.fill_between([t0, t[-1]], r["net_power"] - r["net_power_ci"],
                                 r["net_power"] + r["net_power_ci"], color=colour, alpha=0.2, lw=0)
-            ax.axvline(t0, color="0.5", lw=0.8, ls="--")  # the window starts alike at one speed
-            ax.set(xlabel="time [ms]", ylabel="agitator power [W]", title=f"{rpm:g} min$^{{-1}}$",
-                   ylim=(0, None))
+                ax.axvline(t0, color=colour, lw=0.8, ls="--")
+            ax.set(xlabel="time [ms]", ylabel="agitator power [W]", title=f"{rpm:g} min$^{{-1}}$")
+            means = [r["net_power"] for r in rows if r["rpm"] == rpm]
+            if max(means) > 5 * min(means):  # dry beside wet: a linear axis flattens the dry
+                ax.set_yscale("log")
+                ax.set_ylim(0.3 * min(means), 3 * max(means))
+            else:
+                ax.set_ylim(0, None)
         axes[0].legend(handles=[handles[e] for e in etas], title="simulation viscosity")
         fig.suptitle("Full LS1: agitator power against time\nthick: mean over the averaging "
                      "window (from the dashed line), band: its 95 % interval", fontsize=9)
