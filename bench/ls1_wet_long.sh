@@ -2,8 +2,8 @@
 # One wet full LS1 case over several revolutions (issue 12, items 2-3: is the wet power steady
 # after the study's 1.5 revolutions, and what is it?): config/paper.yaml's stirred-mill
 # parameters, implicit lubrication, both threads of the 2-core VM, checkpoints (the same command
-# resumes, on any thread count: THREADS=1 bash ...). Defaults: 0.5 Pa s, 2500 rpm, 4 revolutions (the power study's 1.5-revolution case of
-# these parameters gave 1250 +- 76 W).
+# resumes, on any thread count: THREADS=1 bash ...). Defaults: 0.5 Pa s, 2500 rpm,
+# 4 revolutions (the power study's 1.5-revolution case of these parameters gave 1250 +- 76 W).
 #   bash bench/ls1_wet_long.sh OUTDIR [ETA_PA_S RPM REVOLUTIONS]
 #   python bench/ls1_study.py OUTDIR/*.nc --json bench/out/full_ls1_wet_long.json
 set -euo pipefail
