@@ -18,6 +18,7 @@ common=(--set scale=1.0 --set slice=false --set bead_diameter_min=0.0018
         --set transient_revolutions=$(python3 -c "print($revolutions / 2)")
         --set ramp_revolutions=0.5 --threads 1)
 for rpm in "${speeds[@]}"; do
-    millsim run stirred_mill "${common[@]}" --set rpm=$rpm --out "$out/dry_rpm${rpm}_${revolutions}rev.nc" &
+    millsim run stirred_mill "${common[@]}" --set rpm=$rpm \
+        --out "$out/dry_rpm${rpm}_${revolutions}rev.nc" &
 done
 wait

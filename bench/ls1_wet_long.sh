@@ -17,4 +17,5 @@ millsim run stirred_mill --set scale=1.0 --set slice=false --set bead_diameter_m
     --set bead_diameter_max=0.0018 --set initial_swirl=0.1 --set seed=1 --set dt_factor=2.0 \
     --set friction=0.3 --set eta="$eta" --set lubrication_scheme=implicit --set max_overlap=0.75 \
     --set rpm="$rpm" --set revolutions="$revolutions" --set transient_revolutions=2 \
-    --set ramp_revolutions=0.5 --threads "$threads" --out "$out/wet_eta${eta}_rpm${rpm}_${revolutions}rev.nc"
+    --set ramp_revolutions=0.5 --threads "$threads" \
+    --out "$out/wet_eta${eta}_rpm${rpm}_${revolutions}rev.nc"
