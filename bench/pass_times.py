@@ -57,9 +57,10 @@ def timed_parts(parts, spec, layout, clock):
             pair_block(rows[b], rows[b + 1], step_now, dt, P, C, R, err, S, bs, fp)
 
     @njit(parallel=L.PRANGE_ONLY, fastmath=L.FAST)
-    def particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
+    def particle_pass(n_blocks, step, last, t_pose, dt, P, C, W, B, R, err, S, bs, fp,
+                      half_skin2):
         for blk in prange(n_blocks):
-            particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs, fp,
+            particle_block(np.int64(blk), step, last, t_pose, dt, P, C, W, B, R, err, S, bs, fp,
                            half_skin2)
 
     @njit(parallel=L.PRANGE_ONLY, fastmath=L.FAST)
@@ -77,7 +78,7 @@ def timed_parts(parts, spec, layout, clock):
         clock[name] = clock.get(name, 0.0) + t1 - t0
         return t1
 
-    def advance(n_steps, step, begin, prime, t, dt, step0, P, C, W, B, R, A, S, bs, fp):
+    def advance(n_steps, step, begin, prime, t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp):
         if layout.implicit:
             raise NotImplementedError("pass_times: the implicit lubrication solve is not timed")
         t0 = time.perf_counter()
@@ -91,12 +92,12 @@ def timed_parts(parts, spec, layout, clock):
         if begin:
             if prime:
                 pair_pass(rows, n_blocks, step0, 0.0, P, C, R, err, S, bs, fp)
-                particle_pass(n_blocks, np.int64(0), prime, t, 0.0, P, C, W, B, R, err, S, bs,
-                              fp, half_skin2)
+                particle_pass(n_blocks, np.int64(0), prime, t + k0 * dt, 0.0, P, C, W, B, R, err,
+                              S, bs, fp, half_skin2)
                 S.wall_part[:] = 0.0
                 if layout.audit:
                     S.audit_part[:] = 0.0
-            start_pass(n_blocks, t + dt, dt, P, B)
+            start_pass(n_blocks, t + (k0 + 1) * dt, dt, P, B)
             t0 = tick("start", t0)
             if L._moved_beyond(P.x, P.x_ref, half_skin2):
                 rebuild[0] = 1
@@ -105,16 +106,17 @@ def timed_parts(parts, spec, layout, clock):
             pair_pass(rows, n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
             t0 = tick("pair pass", t0)
             last = step == n_steps - 1 or stop[0] != 0
+            t_end, t_pose = t + (k0 + step + 1) * dt, t + (k0 + step + 2) * dt
             if TRANSLATING:
-                L.place_walls(W.table, t + (step + 1) * dt)
+                L.place_walls(W.table, t_end)
             if MESHES:
-                L.place_meshes(W.table, t + (step + 1) * dt)
-                if L.mesh_travel(W, t + (step + 1) * dt) > 0.5 * R.skin:
+                L.place_meshes(W.table, t_end)
+                if L.mesh_travel(W, t_end) > 0.5 * R.skin:
                     rebuild[0] = 1
-            particle_pass(n_blocks, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2)
+            particle_pass(n_blocks, step, last, t_pose, dt, P, C, W, B, R, err, S, bs, fp,
+                          half_skin2)
             t0 = tick("particle pass", t0)
-            reductions(t + (step + 1) * dt, dt, P, B, W, A.dissipation, S.wall_part,
-                       S.audit_part, n_blocks)
+            reductions(t_end, dt, P, B, W, A.dissipation, S.wall_part, S.audit_part, n_blocks)
             t0 = tick("reductions (serial)", t0)
             step += 1
             if err[0] != 0 or stop[0] != 0 or (rebuild[0] != 0 and not last):

@@ -249,13 +249,11 @@ def test_stirred_mill_agitator_and_shaft_turn_at_the_set_speed_and_drive(rpm):
     assert sim.work(wall=shaft) > 0, "the turning shaft must drag the beads along, not brake them"
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="open defect: the time is accumulated per chunk, so a "
-                   "moving body's pose depends on the chunking (docs/results/reproducibility.md)")
 def test_stirred_mill_results_do_not_depend_on_the_chunking():
     """The engine's chunking test with a moving body: the tiny slice run in one chunk and in
     chunks of 25 steps must give the same bits (a scene's recording interval must not steer its
-    trajectory). Strict xfail: when the fix lands this passes, and the marker must go."""
+    trajectory; the time once summed chunk by chunk differed in its last bit, and the slice's
+    positions by 2.7e-16 m after 600 steps)."""
     states = []
     for chunk in (300, 25):
         sim = stirred_mill_sim(rpm=3000.0, **STIRRED_TINY)
@@ -265,6 +263,25 @@ def test_stirred_mill_results_do_not_depend_on_the_chunking():
     assert t_one == t_many
     assert np.array_equal(x_one, x_many)
     assert np.array_equal(v_one, v_many)
+
+
+def test_a_change_of_step_keeps_the_trajectory_independent_of_the_chunking():
+    """The step changed mid-run (as breakage and set_time_step do): the time restarts its count
+    from there, so chunks of 25 still give the bits of whole chunks, and the time is the sum of
+    the two legs (100 steps of dt, then 200 of 0.8 dt)."""
+    states = []
+    for chunk in (None, 25):
+        sim = stirred_mill_sim(rpm=3000.0, **STIRRED_TINY)
+        dt = sim.dt
+        sim.run(100, chunk=chunk or 100, threads=1)
+        sim.set_time_step(dt=0.8 * dt)
+        sim.run(200, chunk=chunk or 200, threads=1)
+        states.append((sim.time, sim.particles.x.copy(), sim.particles.w.copy()))
+    (t_one, x_one, w_one), (t_many, x_many, w_many) = states
+    assert t_one == t_many
+    assert t_one == pytest.approx(100 * dt + 200 * 0.8 * dt, rel=1e-12)
+    assert np.array_equal(x_one, x_many)
+    assert np.array_equal(w_one, w_many)
 
 
 def test_stirred_mill_net_power_is_the_agitator_work_rate():

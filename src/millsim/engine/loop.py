@@ -136,18 +136,21 @@ class Layout:
         return self.slot_audit + (N_AUDIT if self.audit else 0)
 
 class ChunkRunner:
-    """``runner(n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime)`` advances up to
-    ``n_steps`` steps and returns ``(steps_done, C, W, events)``: the compiled ``advance`` runs the
-    steps of one neighbour list; between its calls this rebuilds the list (one call per list
+    """``runner(n_steps, t, k0, dt, step0, P, C, W, B, R, A, bs, fp, events, prime)`` advances up
+    to ``n_steps`` steps and returns ``(steps_done, C, W, events)``: the compiled ``advance`` runs
+    the steps of one neighbour list; between its calls this rebuilds the list (one call per list
     lifetime, so the Python overhead is per rebuild, not per step) and collects breakage
-    decisions. ``prime``: compute the forces of the start state before the first step."""
+    decisions. ``prime``: compute the forces of the start state before the first step.
+    The chunk starts at time ``t + k0 dt``: ``t`` is the time at the last change of ``dt``, ``k0``
+    the steps since. Every time in a step is ``t + k dt`` from that same origin, so that where a
+    run is cut into chunks does not change a bit of it (a time summed chunk by chunk did)."""
 
     def __init__(self, advance, collect, layout, rolling, periodic, near_walls):
         self.advance, self.collect = advance, collect
         self.slot_width, self.audit, self.implicit = layout.slot_width, layout.audit, layout.implicit
         self.rolling, self.periodic, self.near_walls = rolling, periodic, near_walls
 
-    def __call__(self, n_steps, t, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
+    def __call__(self, n_steps, t, k0, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
         n = P.x.shape[0]
         n_blocks = (n + BLOCK - 1) // BLOCK
         n_walls = W.table.shape[0]
@@ -165,8 +168,8 @@ class ChunkRunner:
             cg_part=np.zeros((n_blocks if implicit else 0, 3)),
             wall_near=np.zeros(n if self.near_walls else 0, dtype=np.int64))
         S = self._scratch(C, shared)
-        step = self.advance(n_steps, 0, True, bool(prime), t, dt, step0, P, C, W, B, R, A, S, bs,
-                            fp)
+        step = self.advance(n_steps, 0, True, bool(prime), t, k0, dt, step0, P, C, W, B, R, A, S,
+                            bs, fp)
         while True:
             if S.stop[0] != 0:
                 events = self.collect(bs, events, A.n_events, S.out, SLOT_BASE, C.start, C.nbr,
@@ -178,12 +181,12 @@ class ChunkRunner:
             C = rebuilt_contacts(P, C, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
                                  self.periodic)
             if hasattr(W, "tri"):  # mesh walls (MeshWallArrays)
-                W = with_mesh_candidates(W, P, R.skin, t + step * dt)
+                W = with_mesh_candidates(W, P, R.skin, t + (k0 + step) * dt)
             S.rebuild[0] = 0
             S = self._scratch(C, shared)
             A.counters[0] += 1
-            step = self.advance(n_steps, step, False, False, t, dt, step0, P, C, W, B, R, A, S,
-                                bs, fp)
+            step = self.advance(n_steps, step, False, False, t, k0, dt, step0, P, C, W, B, R, A,
+                                S, bs, fp)
         A.counters[1] += step
         return step, C, W, events
 
@@ -326,10 +329,11 @@ class _Parts:
         # and uint64 in the parallel kernel, and each type would compile the block kernel again.
         # No bundle is opened inside a prange body (numba 0.68 loses writes made through a named
         # tuple's attribute there), so err and the scratch flags are taken out first.
-        def advance(n_steps, step, begin, prime, t, dt, step0, P, C, W, B, R, A, S, bs, fp):
+        def advance(n_steps, step, begin, prime, t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp):
             """Steps from ``step`` until n_steps, a breakage decision, a guard, or a due list
             rebuild (S.rebuild set); returns the steps done. ``begin``: the chunk's first call
-            (``prime``: evaluate the forces of the start state first)."""
+            (``prime``: evaluate the forces of the start state first). Local step k ends at
+            t + (k0 + k + 1) dt (see ChunkRunner)."""
             n_blocks = (P.x.shape[0] + BLOCK - 1) // BLOCK
             half_skin2 = 0.25 * R.skin * R.skin
             err, counters = A.err, A.counters
@@ -347,21 +351,22 @@ class _Parts:
                     # literals: a literal argument compiles another variant).
                     for b in prange(n_blocks):
                         pair_block(rows[b], rows[b + 1], step0, 0.0, P, C, R, err, S, bs, fp)
+                    t_start = t + k0 * dt
                     if TRANSLATING:
-                        place_walls(W.table, t)
+                        place_walls(W.table, t_start)
                     if MESHES:
-                        place_meshes(W.table, t)
+                        place_meshes(W.table, t_start)
                     for blk in prange(n_blocks):
-                        particle_block(np.int64(blk), np.int64(0), prime, t, 0.0, P, C, W, B, R,
-                                       err, S, bs, fp, half_skin2)
+                        particle_block(np.int64(blk), np.int64(0), prime, t_start, 0.0, P, C, W,
+                                       B, R, err, S, bs, fp, half_skin2)
                     if IMPLICIT:
                         # the first kick starts at the state: half a step of lubrication, so that
                         # the first drift moves with the implicit half-step velocity (lub_solve)
                         lub_solve(n_blocks, 0.0, 0.5 * dt, False, P, C, R, S, fp, counters)
                         tau = 0.5 * dt
                         for blk in prange(n_blocks):
-                            lub_finish_block(np.int64(blk), np.int64(0), prime, t, 0.0, tau, P, C,
-                                             W, B, R, err, S, half_skin2)
+                            lub_finish_block(np.int64(blk), np.int64(0), prime, t_start, 0.0,
+                                             tau, P, C, W, B, R, err, S, half_skin2)
                     for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
                         power = 0.0
                         for blk in range(n_blocks):
@@ -372,11 +377,11 @@ class _Parts:
                         for k in range(wall_part.shape[1]):
                             for c in range(wall_part.shape[2]):
                                 wall_part[blk, k, c] = 0.0
-                t_next = t + dt
-                for blk in prange(n_blocks):  # start the first step, bodies at t + dt
+                t_next = t + (k0 + 1) * dt
+                for blk in prange(n_blocks):  # start the first step, bodies at its end
                     start_block(np.int64(blk), t_next, dt, P, B)
                 if _moved_beyond(P.x, P.x_ref, half_skin2) or (
-                        MESHES and mesh_travel(W, t) > 0.5 * R.skin):
+                        MESHES and mesh_travel(W, t + k0 * dt) > 0.5 * R.skin):
                     # the last chunk ended on a step that asked for a list rebuild: do it now,
                     # before any pair is evaluated (a list older than half a skin of travel can
                     # miss pairs)
@@ -388,15 +393,17 @@ class _Parts:
                 for b in prange(n_blocks):
                     pair_block(rows[b], rows[b + 1], step_now, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
-                if TRANSLATING:  # the walls where the step's forces are evaluated
-                    place_walls(W.table, t + (step + 1) * dt)
+                t_end = t + (k0 + step + 1) * dt  # where the step's forces are evaluated
+                t_pose = t + (k0 + step + 2) * dt  # body particles' pose for the next step
+                if TRANSLATING:
+                    place_walls(W.table, t_end)
                 if MESHES:
-                    place_meshes(W.table, t + (step + 1) * dt)
-                    if mesh_travel(W, t + (step + 1) * dt) > 0.5 * R.skin:
+                    place_meshes(W.table, t_end)
+                    if mesh_travel(W, t_end) > 0.5 * R.skin:
                         rebuild[0] = 1  # the mesh's triangles near each particle are due
                 for blk in prange(n_blocks):
-                    particle_block(np.int64(blk), step, last, t, dt, P, C, W, B, R, err, S, bs,
-                                   fp, half_skin2)
+                    particle_block(np.int64(blk), step, last, t_pose, dt, P, C, W, B, R, err, S,
+                                   bs, fp, half_skin2)
                 if IMPLICIT:
                     # the kick needs the lubrication impulses first; a breakage decision of the
                     # particle pass is known here, so that step ends without the drift
@@ -404,19 +411,17 @@ class _Parts:
                     lub_solve(n_blocks, 0.5 * dt, dt, warm, P, C, R, S, fp, counters)
                     warm = True
                     for blk in prange(n_blocks):
-                        lub_finish_block(np.int64(blk), step, last, t, dt, dt, P, C, W, B, R, err,
-                                         S, half_skin2)
+                        lub_finish_block(np.int64(blk), step, last, t_pose, dt, dt, P, C, W, B, R,
+                                         err, S, half_skin2)
                 elif stop[0] != 0 and not last:
                     # A particle broke in the particle pass, after ``last`` was decided, so every
                     # particle has already started the next step: take that back, so that the
                     # chunk ends at the step boundary like any other, with positions and
                     # velocities at t + dt (else each breakage added an extra drift and handed
                     # the handler predicted velocities v + dt a: an energy error per event).
-                    t_back = t + (step + 1) * dt
                     for blk in prange(n_blocks):
-                        start_block(np.int64(blk), t_back, -dt, P, B)
-                reductions(t + (step + 1) * dt, dt, P, B, W, A.dissipation, wall_part, audit_part,
-                           n_blocks)
+                        start_block(np.int64(blk), t_end, -dt, P, B)
+                reductions(t_end, dt, P, B, W, A.dissipation, wall_part, audit_part, n_blocks)
                 step += 1
                 if err[0] != 0 or stop[0] != 0 or (rebuild[0] != 0 and not last):
                     break
@@ -683,7 +688,7 @@ def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
     WALLS, PRESSURE, IMPLICIT = spec.walls, spec.normal_force_sum, layout.implicit
     decide = brk.particle_decide
 
-    def particle_block(blk, step, last, t, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
+    def particle_block(blk, step, last, t_pose, dt, P, C, W, B, R, err, S, bs, fp, half_skin2):
         prime = dt == 0.0  # the start state's forces: nothing advances (see advance)
         x, x_ref = P.x, P.x_ref
         stop, rebuild, lub = S.stop, S.rebuild, S.lub_particle
@@ -700,7 +705,7 @@ def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
                 lub[i, LP_FORCE], lub[i, LP_FORCE + 1], lub[i, LP_FORCE + 2] = F0, F1, F2
                 lub[i, LP_FORCE + 3], lub[i, LP_FORCE + 4], lub[i, LP_FORCE + 5] = T0, T1, T2
                 continue
-            finish(i, step, last, t, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)
+            finish(i, step, last, t_pose, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)
             dx0 = x[i, 0] - x_ref[i, 0]
             dx1 = x[i, 1] - x_ref[i, 1]
             dx2 = x[i, 2] - x_ref[i, 2]
@@ -1027,7 +1032,7 @@ def _lub_finish_kernel(spec, layout, finish):
     the skin check."""
     WALLS, AUDIT = spec.walls, layout.audit
 
-    def lub_finish_block(blk, step, last, t, dt, tau, P, C, W, B, R, err, S, half_skin2):
+    def lub_finish_block(blk, step, last, t_pose, dt, tau, P, C, W, B, R, err, S, half_skin2):
         prime = dt == 0.0  # the start state's loads: nothing advances (see advance)
         x, x_ref, body = P.x, P.x_ref, P.body
         start, rev_start, rev_slot, out = C.start, C.rev_start, C.rev_slot, S.lub_slots
@@ -1093,7 +1098,7 @@ def _lub_finish_kernel(spec, layout, finish):
                         pn, pt = row_power(o, tau)
                         audit_part[blk, 3] += pn
                         audit_part[blk, 4] += pt
-            finish(i, step, last, t, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)
+            finish(i, step, last, t_pose, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime)
             dx0 = x[i, 0] - x_ref[i, 0]
             dx1 = x[i, 1] - x_ref[i, 1]
             dx2 = x[i, 2] - x_ref[i, 2]
@@ -1149,7 +1154,7 @@ def _finish_kernel(spec):
     a body particle received for the body reduction; then start the next step."""
     GEAR, GRAVITY, BODIES = spec.integrator == "gear", spec.gravity, spec.bodies
 
-    def finish(i, step, last, t, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime):
+    def finish(i, step, last, t_pose, dt, P, B, R, err, F0, F1, F2, T0, T1, T2, prime):
         x, v, w, acc, alpha = P.x, P.v, P.w, P.acc, P.alpha
         if P.body[i] < 0:
             a0 = F0 * P.inv_mass[i]
@@ -1194,7 +1199,7 @@ def _finish_kernel(spec):
             T2 += r0 * F1 - r1 * F0
         alpha[i, 0], alpha[i, 1], alpha[i, 2] = T0, T1, T2
         if BODIES and not last and not prime:
-            place_body_particle(i, B.table[P.body[i]], x, v, w, P.x_body0, t + (step + 2) * dt)
+            place_body_particle(i, B.table[P.body[i]], x, v, w, P.x_body0, t_pose)
 
     return finish
 

@@ -278,8 +278,12 @@ class Simulation:
         self._next_id = n
         self._fields = {m: _model_fields(m, n) for m in (breakage, fluid) if m is not None}
         self.skin = 0.1 * 2.0 * float(np.mean(radius)) if skin is None else float(skin)
+        # The time of a step is taken from the last change of dt (``_time_origin`` at
+        # ``_step_origin``), never summed chunk by chunk: where a run is cut into chunks (output
+        # cadence, breakage, a resume) then changes no bit of the trajectory.
         self.time = 0.0
         self.step = 0
+        self._time_origin, self._step_origin = 0.0, 0
         # dissipated energy [J] per audit term, then the last step's power [W] per term (the loop
         # integrates trapezoidally; 0 at the start, NaN = unknown after a change of the particles)
         self.accumulators = Accumulators(np.zeros(4, dtype=np.int64), np.zeros(4, dtype=np.int64),
@@ -568,6 +572,17 @@ class Simulation:
         k_n, gamma_n = self.law.stiffness_and_damping(self.pair_params[mat, mat], 0.5 * m_min)
         return a_min, m_min, k_n, gamma_n, self.spec.integrator
 
+    @property
+    def dt(self):
+        """The time step [s]. A change starts a new time origin at the current step."""
+        return self._dt
+
+    @dt.setter
+    def dt(self, value):
+        if value != getattr(self, "_dt", None):
+            self._time_origin, self._step_origin = self.time, self.step
+        self._dt = value
+
     def _policy_dt(self):
         if self.policy.dt is not None:
             return self.policy.dt
@@ -637,14 +652,15 @@ class Simulation:
         self.accumulators.err[:] = 0
         with _signals_after_chunk():
             steps, contacts, self._W, events = runner(
-                n, self.time, self.dt, self.step, p, self.contacts, self._W, self._B, settings,
-                self.accumulators, bs, fp, self.events, not self._forces_current)
+                n, self._time_origin, self.step - self._step_origin, self.dt, self.step, p,
+                self.contacts, self._W, self._B, settings, self.accumulators, bs, fp, self.events,
+                not self._forces_current)
         self._forces_current = True
         done = int(steps)
         self.contacts = ContactList(*contacts)
         self.events = events
         self.step += done
-        self.time += done * self.dt
+        self.time = self._time_origin + (self.step - self._step_origin) * self.dt
         if self.accumulators.err[0]:
             raise SimulationError(self._describe_error(self.accumulators.err))
         return done
