@@ -86,9 +86,10 @@ class Pour:
 
     def due(self, time):
         """Particles due by ``time``: the k-th at start + k / rate (the pour starts at its first
-        fill)."""
+        fill). A time on a due instant counts it as due: the step's time k dt lands a rounding
+        either side of k / rate, so 1e-9 of a particle is forgiven."""
         start = time if self.start is None else self.start
-        return min(self.count, int(self.rate * (time - start)) + 1)
+        return min(self.count, int(self.rate * (time - start) + 1e-9) + 1)
 
     def _draw_radius(self):
         if self.radius_range is not None:
