@@ -1,0 +1,56 @@
+"""The agitator power recorded so far by a stirred-mill case that has not finished, read from its
+checkpoint (a long full-LS1 run stopped for lack of time keeps what its last checkpoint holds).
+
+    python bench/ls1_checkpoint_series.py CASE.nc.ckpt [--json FILE]
+
+Prints the step and revolution the checkpoint was taken at and the mean agitator power of each
+half revolution recorded (the records' plain mean, as bench/ls1_study.py takes the revolution
+means). Only the code that wrote the checkpoint reads it (millsim.io refuses other code): run
+it from that tree, e.g. ``PYTHONPATH=<that tree>/src python bench/ls1_checkpoint_series.py ...``.
+"""
+
+import argparse
+import json
+import pickle
+
+import numpy as np
+
+
+def checkpoint_state(path):
+    """(case, steps so far, run parameters) from a checkpoint written by this code."""
+    from millsim.io import _software_attrs
+
+    with open(path, "rb") as fh:
+        header = pickle.load(fh)  # the run's key, as millsim.io.read_checkpoint reads it
+        differ = sorted(k for k, v in _software_attrs().items() if header.get(k) != v)
+        if differ:
+            raise SystemExit(f"{path}: written by other code ({', '.join(differ)})")
+        saved = pickle.load(fh)
+    return saved["case"], saved["steps_total"], header.get("parameters", {})
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("checkpoint")
+    ap.add_argument("--json")
+    args = ap.parse_args()
+    case, steps, params = checkpoint_state(args.checkpoint)
+    power = np.asarray(case.recorded("agitator_power"))
+    time = np.asarray(case.recorded_times())
+    rpm = float(params["rpm"])
+    revolutions = time * rpm / 60.0
+    half = np.floor(revolutions * 2.0).astype(int)
+    means = [float(power[half == k].mean()) for k in range(int(half.max()) + 1)
+             if (half == k).any()]
+    out = dict(checkpoint=args.checkpoint, steps=int(steps), time_s=float(case.sim.time),
+               revolutions=float(case.sim.time * rpm / 60.0), records=int(len(power)),
+               eta=float(params["eta"]), rpm=rpm, half_revolution_mean_power_w=means,
+               last_half_complete=bool(revolutions[-1] * 2.0 >= len(means)))
+    print(json.dumps(out, indent=1))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(out, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()
