@@ -2,7 +2,8 @@
 Table 3, and the power, its drift, energy balance, typology and region shares of each case
 (issue 12, items 2-3).
 
-    python bench/ls1_study.py CASE.nc [CASE.nc ...] [--json bench/out/full_ls1_study.json]
+    python bench/ls1_study.py CASE.nc [CASE.nc ...] [--rows-from EARLIER.json ...]
+                              [--json bench/out/full_ls1_study.json]
                               [--figure docs/figures/ls1_power_series.png]
 
 The cases are those of ``config/ls1_power.yaml`` (``snakemake ... --configfile config/paper.yaml
@@ -162,11 +163,17 @@ def figure(rows, out):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("cases", nargs="+")
+    ap.add_argument("cases", nargs="*")
+    ap.add_argument("--rows-from", nargs="+", default=[], metavar="JSON",
+                    help="earlier --json files of this script: their cases join the table and "
+                         "figure (case files of earlier sessions, which this machine may not have)")
     ap.add_argument("--json")
     ap.add_argument("--figure")
     args = ap.parse_args(argv)
-    rows = [case_row(p) for p in args.cases]
+    rows = [row for path in args.rows_from for row in json.loads(Path(path).read_text())["cases"]]
+    rows += [case_row(p) for p in args.cases]
+    if not rows:
+        ap.error("no cases: give case files or --rows-from")
     print(table(rows))
     print()
     print(revolution_table(rows))
