@@ -107,8 +107,8 @@ def revolution_table(rows):
 
 
 def table(rows):
-    head = ("| domain | seed | eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms (1 core) | "
-            "projected 52.5 ms [h, 1 core] | seed 004 Table 3 [h] | CG it./step | net power [W] | "
+    head = ("| domain | seed | eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms [threads] | "
+            "projected 52.5 ms [h] | seed 004 Table 3 [h] | CG it./step | net power [W] | "
             "drift over the window [W] | energy balance [%] | impact / shearing / rolling [%] |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in sorted(rows, key=lambda r: (r["domain"], r["eta"], r["rpm"], r["dt"], r["seed"])):
@@ -117,7 +117,7 @@ def table(rows):
                 if r["seed_table3_h"] else "-")
         lines.append(
             f"| {r['domain']} | {r['seed']} | {r['eta']:g} | {r['rpm']:g} | {r['dt']:.3g} | {r['sim_ms']:.1f} | "
-            f"{r['s_per_sim_ms']:.3g} | {r['projected_h_per_52_5_ms']:.2f} | {seed} | "
+            f"{r['s_per_sim_ms']:.3g} [{r['threads']}] | {r['projected_h_per_52_5_ms']:.2f} | {seed} | "
             f"{r['cg_iterations_per_step']:.2f} | {r['net_power']:.3g} +- {r['net_power_ci']:.2g} | "
             f"{r['window_drift']:+.2g} +- {r['window_drift_ci']:.2g} | "
             f"{100 * r['energy_balance_error']:+.3f} | {100 * t['impact']:.0f} / "

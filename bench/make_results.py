@@ -255,6 +255,24 @@ def full_ls1_study():
             table(d["cases"]), ""]
 
 
+def full_ls1_steady():
+    files = _load("full_ls1_steady.json")
+    if not files:
+        return []
+    from ls1_study import revolution_table, table
+
+    _, d = files[0]
+    return ["## Full LS1 over several revolutions: steady power", "",
+            f"{_command(d)}: the cases of bench/ls1_long.sh, bench/ls1_dry_speeds.sh and "
+            "bench/ls1_wet_long.sh (the power study's parameters run for 3-8 revolutions, the "
+            "first half or more discarded; rows of earlier sessions carried in by --rows-from). "
+            "Cost: the compiled loop's seconds per simulated ms, on the threads and load each case "
+            "ran with (docs/results/stirred_mill.md says which). Analysis: "
+            "docs/results/stirred_mill.md, \"Steady state on the full chamber\".", "",
+            table(d["cases"]), "", "Mean power of each revolution:", "",
+            revolution_table(d["cases"]), ""]
+
+
 def ls1():
     files = _load("ls1*.json")
     text = ["## Full-scale LS1 stirred mill against seed 004 Table 3", ""]
@@ -526,7 +544,7 @@ def main(argv=None):
             "makes largely load-independent. Timings older than the load recording say \"not "
             "recorded\".", ""]
     for section in (summary, throughput, strong_scaling, pass_times, leave_out, scaling, ls1,
-                    full_ls1_study, lubrication, size_ratio, mesh_walls):
+                    full_ls1_study, full_ls1_steady, lubrication, size_ratio, mesh_walls):
         text += section()
     Path(args.out).write_text("\n".join(text).rstrip() + "\n")
     print(f"wrote {args.out}")
