@@ -170,7 +170,8 @@ def main(argv=None):
     ap.add_argument("--json")
     ap.add_argument("--figure")
     args = ap.parse_args(argv)
-    rows = [row for path in args.rows_from for row in json.loads(Path(path).read_text())["cases"]]
+    earlier = [json.loads(Path(path).read_text()) for path in args.rows_from]
+    rows = [row for d in earlier for row in d["cases"]]
     rows += [case_row(p) for p in args.cases]
     if not rows:
         ap.error("no cases: give case files or --rows-from")
@@ -179,7 +180,10 @@ def main(argv=None):
     print(revolution_table(rows))
     if args.json:
         command = "python bench/ls1_study.py " + " ".join(argv if argv is not None else sys.argv[1:])
-        Path(args.json).write_text(json.dumps(dict(command=command, cases=rows), indent=1))
+        # the commands that made the carried rows: what regenerates each row
+        earlier_commands = [c for d in earlier for c in [d["command"], *d.get("earlier_commands", [])]]
+        Path(args.json).write_text(json.dumps(dict(command=command, earlier_commands=earlier_commands,
+                                                   cases=rows), indent=1))
     if args.figure:
         figure(rows, args.figure)
 
