@@ -262,10 +262,10 @@ def full_ls1_steady():
     from ls1_study import revolution_table, table
 
     _, d = files[0]
+    earlier = d.get("earlier_commands", [])
+    carried = (", carrying the rows of " + "; ".join(f"`{c}`" for c in earlier)) if earlier else ""
     return ["## Full LS1 over several revolutions: steady power", "",
-            f"{_command(d)}, carrying the rows of "
-            + "; ".join(f"`{c}`" for c in d.get("earlier_commands", []))
-            + ": the cases of bench/ls1_long.sh, bench/ls1_dry_speeds.sh and "
+            f"{_command(d)}{carried}: the cases of bench/ls1_long.sh, bench/ls1_dry_speeds.sh and "
             "bench/ls1_wet_long.sh (the power study's parameters run for 3-8 revolutions, the "
             "first half or more discarded; rows of earlier sessions carried in by --rows-from). "
             "Cost: the compiled loop's seconds per simulated ms, on the threads and load each case "
