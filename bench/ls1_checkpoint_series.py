@@ -4,16 +4,21 @@ checkpoint (a long full-LS1 run stopped for lack of time keeps what its last che
     python bench/ls1_checkpoint_series.py CASE.nc.ckpt [--json FILE]
 
 Prints the step and revolution the checkpoint was taken at and the mean agitator power of each
-half revolution recorded (the records' plain mean, as bench/ls1_study.py takes the revolution
-means). Only the code that wrote the checkpoint reads it (millsim.io refuses other code): run
+half revolution recorded (bench/ls1_study.py's revolution means, halved; the last half may be
+incomplete). Only the code that wrote the checkpoint reads it (millsim.io refuses other code): run
 it from that tree, e.g. ``PYTHONPATH=<that tree>/src python bench/ls1_checkpoint_series.py ...``.
 """
 
 import argparse
 import json
 import pickle
+import sys
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ls1_study import revolution_means  # noqa: E402
 
 
 def checkpoint_state(path):
@@ -41,9 +46,7 @@ def main():
     time = np.asarray(case.recorded_times())
     rpm = float(params["rpm"])
     revolutions = time * rpm / 60.0
-    half = np.floor(revolutions * 2.0).astype(int)
-    means = [float(power[half == k].mean()) for k in range(int(half.max()) + 1)
-             if (half == k).any()]
+    means = revolution_means(time, power, rpm, parts=2, partial=True)
     out = dict(checkpoint=args.checkpoint, steps=int(steps), time_s=float(case.sim.time),
                revolutions=float(case.sim.time * rpm / 60.0), records=int(len(power)),
                eta=float(params["eta"]), rpm=rpm, half_revolution_mean_power_w=means,

@@ -82,13 +82,14 @@ def case_row(path):
     )
 
 
-def revolution_means(time, power, rpm):
-    """Mean agitator power [W] over each whole revolution from the start (a record at t stands
-    for the interval that ends at t; a last revolution short of more than 2 % is left out)."""
-    period = 60.0 / rpm
+def revolution_means(time, power, rpm, parts=1, partial=False):
+    """Mean agitator power [W] over each 1/parts of a revolution from the start (a record at t
+    stands for the interval that ends at t). A last part short of more than 2 % is left out,
+    unless ``partial`` (a stopped run's last records)."""
+    period = 60.0 / (rpm * parts)
     slack = 1e-9 * period  # record times are sums of steps, not exact multiples of the period
     # a case ends on its last whole record, up to a record short of the revolutions asked
-    whole = int(np.floor(time[-1] / period + 0.02))
+    whole = int(np.ceil(time[-1] / period - 1e-9) if partial else np.floor(time[-1] / period + 0.02))
     return [float(power[(time > k * period + slack) & (time <= (k + 1) * period + slack)].mean())
             for k in range(whole)]
 
