@@ -1,4 +1,4 @@
-"""Full-scale LS1 stirred mill: wall time per simulated millisecond, projected to the seed's run.
+"""Full-scale LS1 stirred mill: wall time per simulated ms, projected to the LabStar LS1 paper's run.
 
     python bench/ls1.py [--cases 0:auto:0.5 1:auto:0.1 0:5e-8:0.01 1:5e-8:0.01] [--rpm 2500]
                         [--threads 2] [--ramp-revolutions R] [--json FILE]
@@ -7,7 +7,7 @@
 
 The case is config/paper.yaml's stirred mill: scene ``stirred_mill`` at scale 1, slice false
 (the whole 4-disk chamber), 1.8 mm monodisperse beads from the Table 2 filling (128,739 beads,
-the seed simulates 128,000) plus the 28,992 spheres of the agitator disks. Each viscosity runs in
+the paper simulates 128,000) plus the 28,992 spheres of the agitator disks. Each viscosity runs in
 its own process with ``--threads`` numba threads:
 
 - ``setup_s``: building the case (lattice start, disks, neighbour list), after the imports;
@@ -16,14 +16,14 @@ its own process with ``--threads`` numba threads:
 - the timed run: the case's simulated milliseconds at its step, wall time of the compiled
   chunks only. A case is ``eta:dt:ms[:scheme]``; dt ``auto`` is the scene's automatic step (dry:
   t_c/25 = 1.0e-5 s; 1 Pa s: the lubrication bound, 3.6e-7 s, with the explicit scheme, the dry
-  step with the implicit one), 5e-8 is the seed's; scheme ``explicit`` (default) or ``implicit``
+  step with the implicit one), 5e-8 is the paper's; scheme ``explicit`` (default) or ``implicit``
   (docs/lubrication.md; its solver iterations per step are reported).
 
 The run starts from the scene's start state (beads on FCC lattice sites, 0.1 of rigid swirl), so
 the beads touch little yet (contacts per particle are reported) while the lubrication pairs are
 already all there (lattice neighbours sit 0.001 d apart). The projection multiplies the wall time
-per simulated ms by the seed's 52.5 ms (at the case's own step: for the cases at the seed's
-step, 0.05 us of seed 004 Table 2, that is the like-for-like comparison with Table 3; at larger
+per simulated ms by the paper's 52.5 ms (at the case's own step: for the cases at the paper's
+step, 0.05 us of the paper's Table 2, that is the like-for-like comparison with Table 3; at larger
 steps the agitator moves more per step and the list is rebuilt more often). Peak memory is the child's
 ``ru_maxrss``; ``loadavg`` is os.getloadavg() before and after (the machine is shared).
 ``--ramp-revolutions R`` starts the agitator from rest (the scene's ``ramp_revolutions``): the
@@ -37,11 +37,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-SEED_SIM_MS = 52.5  # seed 004: Table 3 is the elapsed time for 52.5 ms of simulated time
-# seed 004 Table 3: total elapsed time [h] for 52.5 ms, eta = 0 on 1 processor, eta = 1 Pa s on 8
-SEED_TABLE3_H = {1000: (44.2, 21.2), 1500: (44.4, 12.1), 2000: (42.4, 31.2), 2500: (46.3, 30.3),
-                 3000: (44.8, 38.6), 3500: (44.8, 43.4), 4000: (45.0, 35.6)}
-SEED_TABLE3_PROCESSORS = (1, 8)
+PAPER_SIM_MS = 52.5  # the LS1 paper's Table 3 is the elapsed time for 52.5 ms of simulated time
+# the LS1 paper's Table 3: total elapsed time [h] for 52.5 ms, eta = 0 on 1 processor,
+# eta = 1 Pa s on 8
+PAPER_TABLE3_H = {1000: (44.2, 21.2), 1500: (44.4, 12.1), 2000: (42.4, 31.2), 2500: (46.3, 30.3),
+                  3000: (44.8, 38.6), 3500: (44.8, 43.4), 4000: (45.0, 35.6)}
+PAPER_TABLE3_PROCESSORS = (1, 8)
 
 RUN = r"""
 import json, os, resource, sys, time
@@ -97,12 +98,12 @@ def measure(eta, dt, rpm, sim_ms, threads, ramp=0.0, scheme="explicit"):
                 "error": lines[-1] if lines else f"exit code {out.returncode}"}
     r = json.loads(out.stdout.strip().splitlines()[-1])
     r["dt_choice"] = "auto" if dt == 0 else "given"
-    r["projection_52p5ms_h"] = r["wall_s_per_sim_ms"] * SEED_SIM_MS / 3600
-    seed = SEED_TABLE3_H.get(int(rpm))
-    if seed:
+    r["projection_52p5ms_h"] = r["wall_s_per_sim_ms"] * PAPER_SIM_MS / 3600
+    paper = PAPER_TABLE3_H.get(int(rpm))
+    if paper:
         k = 0 if eta == 0 else 1
-        r["seed_table3_h"] = seed[k]
-        r["seed_table3_processors"] = SEED_TABLE3_PROCESSORS[k]
+        r["paper_table3_h"] = paper[k]
+        r["paper_table3_processors"] = PAPER_TABLE3_PROCESSORS[k]
     return r
 
 
@@ -130,7 +131,7 @@ def main(argv=None):
         print(f"eta = {r['eta']:g} Pa s {r['scheme']}, dt {r['dt']:.3g} s ({r['dt_choice']}): "
               f"{r['n_particles']} particles, setup {r['setup_s']:.1f} s, "
               f"{r['wall_s_per_sim_ms']:.1f} s per simulated ms -> {r['projection_52p5ms_h']:.2f} h "
-              f"for 52.5 ms (seed Table 3: {r.get('seed_table3_h', float('nan'))} h); "
+              f"for 52.5 ms (the LS1 paper's Table 3: {r.get('paper_table3_h', float('nan'))} h); "
               f"load {r['loadavg'][0][0]:.1f}", flush=True)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)

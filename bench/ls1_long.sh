@@ -10,7 +10,7 @@ mkdir -p "$out"
 common=(--set scale=1.0 --set slice=false --set bead_diameter_min=0.0018
         --set bead_diameter_max=0.0018 --set initial_swirl=0.1 --set seed=1 --set dt_factor=2.0
         --set friction=0.3 --set eta=0 --threads 1)
-# 8 revolutions, the first 4 discarded (the seed: steady state after 5-10 rotations)
+# 8 revolutions, the first 4 discarded (the LabStar LS1 paper: steady state after 5-10 rotations)
 millsim run stirred_mill "${common[@]}" --set rpm=3000 --set revolutions=8 \
     --set transient_revolutions=4 --set ramp_revolutions=0.5 --out "$out/dry_rpm3000_8rev.nc" &
 # 4000 rpm: half a revolution of ramp stops on the overlap guard 2 ms after it; one revolution

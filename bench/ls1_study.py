@@ -1,6 +1,6 @@
-"""Stirred-mill case files, above all the full-LS1 power study's: cost per case beside seed 004
-Table 3, and the power, its drift, energy balance, typology and region shares of each case
-(issue 12, items 2-3).
+"""Stirred-mill case files, above all the full-LS1 power study's: cost per case beside the
+LabStar LS1 paper's Table 3, and the power, its drift, energy balance, typology and region shares
+of each case (issue 12, items 2-3).
 
     python bench/ls1_study.py CASE.nc [CASE.nc ...] [--rows-from EARLIER.json ...]
                               [--json bench/out/full_ls1_study.json]
@@ -8,8 +8,8 @@ Table 3, and the power, its drift, energy balance, typology and region shares of
 
 The cases are those of ``config/ls1_power.yaml`` (``snakemake ... --configfile config/paper.yaml
 config/ls1_power.yaml``), each run on one thread. Cost: the compiled loop's seconds
-(``compute_seconds``) per simulated millisecond, projected to the seed's 52.5 ms on one core;
-seed 004 Table 3 ran eta = 0 on 1 processor and eta = 1 Pa s on 8. The figure draws each
+(``compute_seconds``) per simulated millisecond, projected to the paper's 52.5 ms on one core;
+the paper's Table 3 ran eta = 0 on 1 processor and eta = 1 Pa s on 8. The figure draws each
 case's agitator power against time, with the averaging window and the mean with its 95 % interval,
 so that a reader sees how far each case is from a steady state.
 """
@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from ls1 import SEED_SIM_MS, SEED_TABLE3_H, SEED_TABLE3_PROCESSORS  # noqa: E402
+from ls1 import PAPER_SIM_MS, PAPER_TABLE3_H, PAPER_TABLE3_PROCESSORS  # noqa: E402
 
 
 def drift(time, power, start, blocks=8):
@@ -46,7 +46,7 @@ def case_row(path):
     p = json.loads(ds.attrs["parameters_json"])
     sim_ms = float(ds.attrs["steps"]) * float(ds.attrs["dt"]) * 1e3
     s_per_ms = float(ds.attrs["compute_seconds"]) / sim_ms
-    seed_h = SEED_TABLE3_H.get(int(p["rpm"]))
+    paper_h = PAPER_TABLE3_H.get(int(p["rpm"]))
     change, change_ci = drift(ds["time"].values, ds["agitator_power"].values,
                               float(ds["statistics_start"]), int(p["ci_blocks"]))
     wet = p["eta"] > 0
@@ -57,11 +57,11 @@ def case_row(path):
         threads=int(ds.attrs["threads"]), dt=float(ds.attrs["dt"]), steps=int(ds.attrs["steps"]),
         sim_ms=sim_ms, revolutions=p["revolutions"], ramp_revolutions=p["ramp_revolutions"],
         compute_s=float(ds.attrs["compute_seconds"]),
-        s_per_sim_ms=s_per_ms, projected_h_per_52_5_ms=s_per_ms * SEED_SIM_MS / 3600,
+        s_per_sim_ms=s_per_ms, projected_h_per_52_5_ms=s_per_ms * PAPER_SIM_MS / 3600,
         # Table 3 gives the full chamber at eta = 0 and 1 Pa s only
-        seed_table3_h=(seed_h[wet] if seed_h and p["eta"] in (0.0, 1.0) and not p["slice"]
-                       else None),
-        seed_table3_processors=SEED_TABLE3_PROCESSORS[wet],
+        paper_table3_h=(paper_h[wet] if paper_h and p["eta"] in (0.0, 1.0) and not p["slice"]
+                        else None),
+        paper_table3_processors=PAPER_TABLE3_PROCESSORS[wet],
         cg_iterations_per_step=float(ds.attrs.get("lubrication_iterations_per_step", 0.0)),
         n_beads=int(ds["n_bead"]), n_agitator_particles=int(ds["n_agitator_particles"]),
         net_power=float(ds["net_power"]), net_power_ci=float(ds["net_power_ci"]),
@@ -109,16 +109,16 @@ def revolution_table(rows):
 
 def table(rows):
     head = ("| domain | seed | eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms [threads] | "
-            "projected 52.5 ms [h] | seed 004 Table 3 [h] | CG it./step | net power [W] | "
+            "projected 52.5 ms [h] | the LS1 paper's Table 3 [h] | CG it./step | net power [W] | "
             "drift over the window [W] | energy balance [%] | impact / shearing / rolling [%] |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in sorted(rows, key=lambda r: (r["domain"], r["eta"], r["rpm"], r["dt"], r["seed"])):
         t = r["typology"]
-        seed = (f"{r['seed_table3_h']:g} ({r['seed_table3_processors']} proc.)"
-                if r["seed_table3_h"] else "-")
+        paper = (f"{r['paper_table3_h']:g} ({r['paper_table3_processors']} proc.)"
+                 if r["paper_table3_h"] else "-")
         lines.append(
             f"| {r['domain']} | {r['seed']} | {r['eta']:g} | {r['rpm']:g} | {r['dt']:.3g} | {r['sim_ms']:.1f} | "
-            f"{r['s_per_sim_ms']:.3g} [{r['threads']}] | {r['projected_h_per_52_5_ms']:.2f} | {seed} | "
+            f"{r['s_per_sim_ms']:.3g} [{r['threads']}] | {r['projected_h_per_52_5_ms']:.2f} | {paper} | "
             f"{r['cg_iterations_per_step']:.2f} | {r['net_power']:.3g} +- {r['net_power_ci']:.2g} | "
             f"{r['window_drift']:+.2g} +- {r['window_drift_ci']:.2g} | "
             f"{100 * r['energy_balance_error']:+.3f} | {100 * t['impact']:.0f} / "

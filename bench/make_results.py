@@ -9,7 +9,8 @@ that writes it. Files read (any may be missing; its section then says so):
 - ``leave_out_*.json``: bench/leave_out.py (physics compiled out vs in but inactive);
 - ``scaling*.json``: bench/scaling.py (cost vs particle count and time step, peak memory);
 - ``strong_scaling*.json``: bench/strong_scaling.py (the same system on 1, 2, 4, ... cores);
-- ``ls1*.json``: bench/ls1.py (full-scale LS1 stirred mill vs seed 004 Table 3);
+- ``ls1*.json``: bench/ls1.py (full-scale LS1 stirred mill vs the LabStar LS1 paper's
+  Table 3);
 - ``size_ratio*.json``: bench/size_ratio.py (multi-level grid at wide size ratios);
 - ``mesh_drum*.json``: bench/mesh_drum.py (a drum's shell as a triangle mesh vs the cylinder).
 """
@@ -245,11 +246,11 @@ def full_ls1_study():
     from ls1_study import table
 
     _, d = files[0]
-    return ["## Full LS1 power study: cost per case beside seed 004 Table 3", "",
+    return ["## Full LS1 power study: cost per case beside the LS1 paper's Table 3", "",
             f"{_command(d)}: the case files of `config/ls1_power.yaml`, one thread per case, two "
             "to four cases at a time on this VM's 2 cores (the last three cases two at a time: "
             "their costs are near one idle core's). Cost = the compiled loop's seconds per "
-            "simulated ms on one core, projected to the seed's 52.5 ms; Table 3 ran eta = 0 on "
+            "simulated ms on one core, projected to the LS1 paper's 52.5 ms; Table 3 ran eta = 0 on "
             "1 processor and 1 Pa s on 8 (it gives no other viscosity). Power: mean over the averaging window "
             "with its 95 % block interval; analysis in docs/results/stirred_mill.md.", "",
             table(d["cases"]), ""]
@@ -277,7 +278,7 @@ def full_ls1_steady():
 
 def ls1():
     files = _load("ls1*.json")
-    text = ["## Full-scale LS1 stirred mill against seed 004 Table 3", ""]
+    text = ["## Full-scale LS1 stirred mill against the LS1 paper's Table 3", ""]
     if not files:
         return text + ["No `ls1*.json` in bench/out.", ""]
     text += ["Scene `stirred_mill` at scale 1, slice false (the whole 4-disk chamber), 1.8 mm "
@@ -286,8 +287,8 @@ def ls1():
              "yet; the lubrication pairs are all there). `setup` = building the case after the "
              "imports; `first 5 steps` = loading (or compiling) the loop; the timed run = wall "
              "time of the compiled chunks for the simulated time shown. Projection = wall per "
-             "simulated ms x 52.5 ms (the seed's run, Table 3: eta = 0 on 1 processor, 1 Pa s on "
-             "8). Each file names the command that wrote it.", ""]
+             "simulated ms x 52.5 ms (the LS1 paper's run, Table 3: eta = 0 on 1 processor, 1 Pa "
+             "s on 8). Each file names the command that wrote it.", ""]
     for p, d in files:
         rows = []
         loads = []
@@ -297,14 +298,14 @@ def ls1():
                 continue
             lv = _one_minute(c.get("loadavg"))
             loads += lv
-            seed = c.get("seed_table3_h")
+            paper = c.get("paper_table3_h")
             proj = c["projection_52p5ms_h"]
             rows.append([f"{_g(c['eta'])} {c.get('scheme', 'explicit')}",
                          f"{_g(c['dt'])} ({c.get('dt_choice', '-')})", c["steps"],
                          _g(c["sim_ms"]), _g(c["setup_s"]), _g(c["first_steps_s"]),
                          _g(c["s_per_step"]), _g(c["wall_s_per_sim_ms"]), _g(proj),
-                         f"{_g(seed)} ({c.get('seed_table3_processors', '-')} proc.)" if seed else "-",
-                         _g(proj / seed) if seed else "-", _g(c["particle_steps_per_s"]),
+                         f"{_g(paper)} ({c.get('paper_table3_processors', '-')} proc.)" if paper else "-",
+                         _g(proj / paper) if paper else "-", _g(c["particle_steps_per_s"]),
                          _g(c["contacts_per_particle"]), c["list_rebuilds"], _g(c["max_rss_mb"]),
                          _load_note(lv)])
         for c in failed:
@@ -319,7 +320,7 @@ def ls1():
                  f"{d['threads']} threads, load (1 min) {_load_note(loads)}.", ""]
         text.append(_table(["eta [Pa s], scheme", "dt [s]", "steps", "simulated [ms]", "setup [s]",
                             "first 5 steps [s]", "s/step", "wall s per simulated ms",
-                            "projected 52.5 ms [h]", "seed Table 3 [h]", "projected / seed",
+                            "projected 52.5 ms [h]", "the LS1 paper's Table 3 [h]", "projected / paper",
                             "particle-steps/s", "contacts/particle", "list rebuilds",
                             "peak RSS [MB]", "load (1 min)"], rows))
         text.append("")
@@ -438,15 +439,16 @@ def summary():
                 text.append(f"- LS1 at {d['rpm']:g} rpm, eta = {c['eta']:g} Pa s (`{name.name}`): did "
                             f"not complete ({c['error'].split(': ', 1)[-1][:90]}...).")
                 continue
-            seed = c.get("seed_table3_h")
+            paper = c.get("paper_table3_h")
             text.append(
                 f"- LS1 at {d['rpm']:g} rpm, eta = {c['eta']:g} Pa s "
                 f"({c.get('scheme', 'explicit')} lubrication), dt = {c['dt']:.3g} s "
                 f"({c.get('dt_choice', '-')}), {d['threads']} threads (`{name.name}`): "
                 f"{c['wall_s_per_sim_ms']:.3g} s per simulated ms -> "
                 f"{c['projection_52p5ms_h']:.3g} h for 52.5 ms"
-                + (f" (seed Table 3: {seed} h on {c['seed_table3_processors']} processor(s))"
-                   if seed else "") + f"; setup {c['setup_s']:.0f} s, peak {c['max_rss_mb']:.0f} MB.")
+                + (f" (the LabStar LS1 paper's Table 3: {paper} h on "
+                   f"{c['paper_table3_processors']} processor(s))" if paper else "")
+                + f"; setup {c['setup_s']:.0f} s, peak {c['max_rss_mb']:.0f} MB.")
     text.append("")
     return text
 

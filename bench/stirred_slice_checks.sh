@@ -1,7 +1,8 @@
 #!/bin/bash
 # Quick-slice checks behind issue 12 (docs/results/stirred_mill.md, "Start and steady state"):
 # 1. config/config.yaml's slice at 1000 and 4000 rpm, dry and at 1 Pa s (implicit), from the
-#    lattice start without a ramp: does it start and settle at the ends of the seed's range?
+#    lattice start without a ramp: does it start and settle at the ends of the LabStar LS1
+#    paper's range?
 # 2. the slice at 1 Pa s, 2500 rpm, implicit, at config/paper.yaml's step (dt_factor 2, t_c/25)
 #    against the quick study's (1, t_c/50), seeds 1-2 paired: is the full-LS1 study's step
 #    accurate enough for the wet power?

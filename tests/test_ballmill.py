@@ -1,4 +1,5 @@
-"""Seed 000 fragmentation: fragment sampler, split geometry, fracture statistics, mass bookkeeping."""
+"""Fragmentation (Buchholtz et al. 2000): fragment sampler, split geometry, fracture statistics,
+mass bookkeeping."""
 
 import math
 

@@ -1,4 +1,5 @@
-"""Scene bed_impact (seed 002 section 4.2): geometry, ball, mass conservation, case outputs.
+"""Scene bed_impact (Tavares et al. 2021, section 4.2): geometry, ball, mass conservation, case
+outputs.
 
 One spec variant is compiled (the scene's own: 3D Hertz-Mindlin, walls, gravity, Tavares,
 rolling friction); the engine-level cases use it too.
@@ -61,7 +62,7 @@ def test_total_mass_and_ball():
     v = bed.ball_speed(3.05, 2.78)
     assert 0.5 * 2.78 * v**2 == pytest.approx(3.05)
     assert v == pytest.approx(1.4813, abs=1e-4)
-    # the seed's speed range 1.0-2.5 m/s
+    # the paper's speed range 1.0-2.5 m/s
     assert bed.ball_speed(0.5 * 2.78 * 1.0**2, 2.78) == pytest.approx(1.0)
 
 
@@ -115,7 +116,7 @@ def test_mass_conserved_through_breakage_with_fines():
     assert len(tracker.event_rows) == len(replace.events)
 
 
-# Seed 002 (Tavares et al. 2021) Table 4, copper ore: E_inf [J/kg] on the stress-vs-steel basis,
+# Tavares et al. 2021, Table 4, copper ore: E_inf [J/kg] on the stress-vs-steel basis,
 # d0 [m], phi, sigma; Table 5: density, Young's modulus, Poisson ratio of the ore and of steel;
 # section 3.1: Emax/E50 = 100 in the bed validation.
 ORE = dict(E_inf=213.5, d0=8.07e-3, phi=1.22, sigma=0.799, density=2930.0, young=52e9, poisson=0.25)

@@ -1,17 +1,18 @@
 """Breakage relations against expectations coded here from the published equations.
 
-Tavares model: seed 002 (Tavares, Rodriguez, Sousani, Padros, Ooi 2021, Powder Technol. 392,
-473-488) eqs 1-16, in the form restated in /work/shared/reference/tavares.md (the seed's text
+Tavares model: (Tavares, Rodriguez, Sousani, Padros, Ooi 2021, Powder Technol. 392,
+473-488) eqs 1-16, in the form restated in /work/shared/reference/tavares.md (the paper's text
 lost the equation bodies; the restatement gives them with their sources). Weibull fracture:
-seed 000 (Buchholtz, Freund & Poeschel 2000) P = 1 - exp(-c R^-3 F^4). Comminution rate:
+(Buchholtz, Freund & Poeschel 2000) P = 1 - exp(-c R^-3 F^4). Comminution rate:
 events per second of the steady window [transient, duration].
 
 No expected number here comes from the function under test: each is computed in this file from
 the equation (root finding with brentq for implicit or inverse relations, scipy.special.betainc
 for eq 10, the closed-form peak force of a damped linear oscillator, the work-energy theorem) or
-is a published value. Material constants (seed Tables 4-5) come from config/materials.yaml
-through the loader: they are inputs, not predictions. Checks are made away from the points where
-a wrong form is invisible (E = E50b, d = d0, equal stiffness, equal radii, F = 1 N).
+is a published value. Material constants (Tables 4-5 of Tavares et al. 2021) come from
+config/materials.yaml through the loader: they are inputs, not predictions. Checks are made away
+from the points where a wrong form is invisible (E = E50b, d = d0, equal stiffness, equal radii,
+F = 1 N).
 
 Compiled variants: the Tavares engine test uses the spec of tests/test_tavares_engine.py and the
 Weibull engine test the spec of tests/test_ballmill.py::_colliding_pairs, the mill run the
@@ -36,14 +37,16 @@ from millsim.models.breakage.replacement import product_passing as replacement_p
 from millsim.util.stats import binomial_interval, steady_rate
 
 BREAKABLE = ("copper_ore", "limestone", "granulite")
-# Seed 002 Table 5 steel (Y = 210 GPa, nu = 0.30); section 2.1: "ks is approximately 230 GPa".
+# Tavares et al. 2021, Table 5 steel (Y = 210 GPa, nu = 0.30); section 2.1: "ks is approximately
+# 230 GPa".
 K_STEEL = 210e9 / (1.0 - 0.30**2)
-# Seed 002 Table 1: (alpha_n, beta_n) averaged over 40 materials, n = 1.2, 1.5, 2, 4, 25, 50, 75.
-SEED_TABLE1 = {1.2: (0.448, 10.508), 1.5: (0.706, 7.913), 2.0: (0.959, 5.780),
+# Tavares et al. 2021, Table 1: (alpha_n, beta_n) averaged over 40 materials,
+# n = 1.2, 1.5, 2, 4, 25, 50, 75.
+PAPER_TABLE1 = {1.2: (0.448, 10.508), 1.5: (0.706, 7.913), 2.0: (0.959, 5.780),
                4.0: (1.105, 2.619), 25.0: (0.981, 0.524), 50.0: (0.956, 0.339),
                75.0: (0.934, 0.255)}
 N_ORDER = (1.2, 1.5, 2.0, 4.0, 25.0, 50.0, 75.0)
-X_MIN = 2.0 ** (-9.0 / 4.0)  # seed 002 section 2.2: x_min = 1/2^(9/4) = 0.210
+X_MIN = 2.0 ** (-9.0 / 4.0)  # Tavares et al. 2021, section 2.2: x_min = 1/2^(9/4) = 0.210
 
 
 def make_sim(spec, table, **kw):
@@ -63,13 +66,13 @@ def mats_sp():
 
 # ---- independent references ----------------------------------------------------------------
 def hertz_k(young, poisson):
-    """Hertzian stiffness Y/(1 - nu^2) (seed 002 section 2.1)."""
+    """Hertzian stiffness Y/(1 - nu^2) (Tavares et al. 2021, section 2.1)."""
     return young / (1.0 - poisson**2)
 
 
 def ref_share(k_p, k_m):
-    """Eq 4 from its derivation (seed 002 Appendix A): the two Hertz approaches add in series
-    under one force, so each body stores energy in proportion to its compliance 1/k."""
+    """Eq 4 from its derivation (Tavares et al. 2021, Appendix A): the two Hertz approaches add in
+    series under one force, so each body stores energy in proportion to its compliance 1/k."""
     return (1.0 / k_p) / (1.0 / k_p + 1.0 / k_m)
 
 
@@ -165,7 +168,7 @@ def test_eq1_2_cdf_and_quantiles(truncation, name):
 
 # ---- eq 4 -----------------------------------------------------------------------------------
 def test_eq4_share_for_unequal_stiffness_both_orderings(mats):
-    """Eq 4 for every ordered pair of the seed's materials (and steel): the softer body takes
+    """Eq 4 for every ordered pair of the paper's materials (and steel): the softer body takes
     more, the two shares add to 1. The particle-on-steel share is eq 3's kp/ks factor."""
     ks = {n: hertz_k(m.young, m.poisson) for n, m in mats.items()}
     names = sorted(ks)
@@ -187,7 +190,7 @@ def test_eq4_share_for_unequal_stiffness_both_orderings(mats):
 @pytest.mark.parametrize("gamma", [1.0, 2.5, 5.0, 5.4, 8.0])
 def test_eq5_6_damage_at_several_energy_ratios(gamma):
     """Eq 6 solved here by brentq at r = Ek'/(m E) from 0.05 to 0.97 (gamma 5.0 and 5.4 are the
-    seed's Table 4 values); eq 5 gives E' = E (1 - D). abs 1e-10 covers both solvers."""
+    paper's Table 4 values); eq 5 gives E' = E (1 - D). abs 1e-10 covers both solvers."""
     for r in (0.05, 0.2, 0.5, 0.8, 0.97):
         D = ref_damage(r, gamma)
         assert tv.damage_fraction(r, gamma) == pytest.approx(D, abs=1e-10)
@@ -210,7 +213,8 @@ def test_eq7_t10_population_away_from_the_median(mats, name):
 def test_eq8_9_t10_prime_of_one_particle(mats, name):
     """Eq 8 with the particle's own (damaged) E, both kappa placements (tavares.md section 6):
     numerator A[1 - exp(-b' kappa Ek'/(m E))], denominator A[1 - exp(-b' Ek'/(m kappa E))];
-    eq 9 (Ek'/m = E): A[1 - exp(-b' kappa)], 0.6 % to about 6 % per seed 002 section 2.2."""
+    eq 9 (Ek'/m = E): A[1 - exp(-b' kappa)], 0.6 % to about 6 % per Tavares et al. 2021,
+    section 2.2."""
     mat = mats[name]
     for E in (30.0, 420.0):
         for ratio in (1.0, 1.5, 4.0, 30.0):
@@ -233,11 +237,11 @@ def test_eq8_9_t10_prime_of_one_particle(mats, name):
 # ---- eq 10 ----------------------------------------------------------------------------------
 @pytest.mark.parametrize("source", ["table1", *BREAKABLE])
 def test_eq10_tn_by_the_incomplete_beta(source):
-    """Eq 10 written out with scipy.special.betainc(alpha_n, beta_n, t10/100), for seed Table 1
-    (typed here from the paper) and each material's Table 4 set, t10 from 2 % to 45 %. The
+    """Eq 10 written out with scipy.special.betainc(alpha_n, beta_n, t10/100), for the paper's
+    Table 1 (typed here from the paper) and each material's Table 4 set, t10 from 2 % to 45 %. The
     t_n fall with n (t1.2 > ... > t4 > t10 > t25 > ... > t75: a finer sieve passes less)."""
     if source == "table1":
-        pairs, params = SEED_TABLE1, tv.TABLE1_AVERAGE
+        pairs, params = PAPER_TABLE1, tv.TABLE1_AVERAGE
     else:  # loaded here, not by the fixture: a broken t_n already makes the loader refuse
         mat = tv.load_materials()[source]
         pairs, params = pairs_of(mat), mat
@@ -287,8 +291,8 @@ TAV_SPEC = PhysicsSpec(dim=3, walls=True, gravity=False)  # the table names hert
 @pytest.mark.parametrize("pair", [("copper_ore", "limestone"), ("granulite", "copper_ore")])
 def test_engine_splits_collision_energy_by_eq4_and_damages_by_eq6(mats, pair):
     """Two unbroken spheres of different materials and radii collide head-on (restitution 0.48,
-    seed 002 Table 6 particle-particle). Eqs 15-16: the elastic + dashpot work while the overlap
-    grows equals the relative kinetic energy m* v^2/2 (work-energy theorem, whatever the
+    Tavares et al. 2021, Table 6 particle-particle). Eqs 15-16: the elastic + dashpot work while
+    the overlap grows equals the relative kinetic energy m* v^2/2 (work-energy theorem, whatever the
     damping). Eq 4: body a absorbs k_b/(k_a + k_b) of it, b the rest. Eqs 5-6: each ends with
     E' = E (1 - D(Ek'/(m E))). Fracture energies are set so that r = 0.6 and 0.4.
 
@@ -329,9 +333,9 @@ def test_engine_splits_collision_energy_by_eq4_and_damages_by_eq6(mats, pair):
         assert lo <= sim.breakage.e_frac[i] <= hi, (i, sim.breakage.e_frac[i], lo, hi)
 
 
-# ---- Weibull fracture (seed 000) ------------------------------------------------------------
+# ---- Weibull fracture (Buchholtz et al. 2000) -----------------------------------------------
 def ref_weibull(c, R, F):
-    """Seed 000: P = 1 - exp(-c R^-3 F^4)."""
+    """Buchholtz et al. 2000: P = 1 - exp(-c R^-3 F^4)."""
     return 1.0 - math.exp(-c * F**4 / R**3)
 
 
@@ -374,13 +378,14 @@ def hw_peak_force(Y, gamma_n, m_eff, v0):
 
 
 def test_engine_weibull_trials_follow_the_closed_form_probability():
-    """400 head-on pairs of unequal disks (2.5 and 2.0 mm, seed 000 constants Y = 8e3 N/m,
-    gamma_N = 800 1/s, rho = 2000 kg/m3, 1 cm thick) at 0.3 m/s: one contact event each, one
-    trial per disk at the peak force. Expected P of each size from seed 000's formula at the
-    closed-form peak force of the damped oscillator (0.307 N: F^4 and F^3 differ by 3x). The
-    broken count of each size lies in its 99 % Clopper-Pearson interval (fixed seed: a correct
-    engine fails one of the two with probability < 2 %, here never as the outcome is fixed).
-    The engine's recorded peak force is the closed form to 1e-3 (measured 1.3e-4 at t_c/50)."""
+    """400 head-on pairs of unequal disks (2.5 and 2.0 mm, Buchholtz et al. 2000 constants
+    Y = 8e3 N/m, gamma_N = 800 1/s, rho = 2000 kg/m3, 1 cm thick) at 0.3 m/s: one contact event
+    each, one trial per disk at the peak force. Expected P of each size from the formula of
+    Buchholtz et al. 2000 at the closed-form peak force of the damped oscillator (0.307 N: F^4 and
+    F^3 differ by 3x). The broken count of each size lies in its 99 % Clopper-Pearson interval
+    (fixed seed: a correct engine fails one of the two with probability < 2 %, here never as the
+    outcome is fixed). The engine's recorded peak force is the closed form to 1e-3 (measured
+    1.3e-4 at t_c/50)."""
     r1, r2, rho, L, Y, g_n, v = 2.5e-3, 2.0e-3, 2000.0, 0.01, 8e3, 800.0, 0.3
     c = 7.5e-7
     count = 400
@@ -516,10 +521,10 @@ def test_clopper_pearson_is_the_exact_binomial_tail(level):
 
 @pytest.mark.parametrize("name", BREAKABLE)
 def test_breakage_probability_and_t10_model_of_the_verification(mats_sp, name):
-    """Verification expectations (seed 002 section 4.1): the broken fraction at input energy Ek/m
-    is eq 1 at the absorbed energy e Ek/m (e of eq 4 on steel); E50b is the median fracture
-    energy of the particles broken, i.e. the quantile P/2 of eqs 1-2 (found by brentq); eq 7 t10
-    = A[1 - exp(-b' e Ek/m / E50b)]. Energies from 0.3 to 3 x the stressing median, so that
+    """Verification expectations (Tavares et al. 2021, section 4.1): the broken fraction at input
+    energy Ek/m is eq 1 at the absorbed energy e Ek/m (e of eq 4 on steel); E50b is the median
+    fracture energy of the particles broken, i.e. the quantile P/2 of eqs 1-2 (found by brentq);
+    eq 7 t10 = A[1 - exp(-b' e Ek/m / E50b)]. Energies from 0.3 to 3 x the stressing median, so that
     Ek != E50b."""
     mat = mats_sp[name]
     d = 5.5e-3
@@ -538,10 +543,10 @@ def test_breakage_probability_and_t10_model_of_the_verification(mats_sp, name):
             ref_t10(mat.A, mat.b_prime, e * Ek / E50), rel=1e-9)
 
 
-def test_median_of_broken_reproduces_seed_fig1_example(mats):
-    """Seed 002 section 2.2 / Fig 1: median 347.3 J/kg, sigma 0.799 (copper ore), one impact at
-    534.1 J/kg breaks 71 % and E50b = 258.0 J/kg (the 35.5th percentile). The paper rounds and
-    does not state its truncation: Emax/E50 = 100 (its bed set-up) reproduces P(534.1) = 0.71 to
+def test_median_of_broken_reproduces_paper_fig1_example(mats):
+    """Tavares et al. 2021, section 2.2 / Fig 1: median 347.3 J/kg, sigma 0.799 (copper ore), one
+    impact at 534.1 J/kg breaks 71 % and E50b = 258.0 J/kg (the 35.5th percentile). The paper rounds
+    and does not state its truncation: Emax/E50 = 100 (its bed set-up) reproduces P(534.1) = 0.71 to
     0.2 %, while 258.0 is the untruncated 35.5th percentile (with Emax/E50 = 100 it is 0.6 % lower),
     so 1 % on E50b. The median of all (347.3) or the P-quantile (534) would be far outside."""
     cu = dataclasses.replace(mats["copper_ore"], E_inf=347.3 / 2.0, E_inf_basis="absorbed")
@@ -556,7 +561,7 @@ def test_repeated_impacts_model_integrates_the_damage_sequence(mats_sp):
     (brentq) between impacts, a particle breaking at the first impact with e Ek/m >= E_k. The
     quadrature error of 2000 vs the module's 200000 quantiles is below 1/2000 per fraction."""
     mat = mats_sp["copper_ore"]
-    d, Ek, impacts, gamma = 37.5e-3, 94.7, 6, 3.0  # seed 002 Fig 11 energy and size
+    d, Ek, impacts, gamma = 37.5e-3, 94.7, 6, 3.0  # Fig 11 of Tavares et al. 2021: energy and size
     e = ref_share(hertz_k(mat.young, mat.poisson), K_STEEL)
     E50 = ref_E50(mat, d)
     Emax = mat.Emax_over_E50 * E50

@@ -40,12 +40,13 @@ def test_run_writes_self_describing_case(tmp_path, capsys):
     that step, the step count its time record implies, every parameter as given, the software
     versions of this process, SI units by name, and the physics of the damped linear oscillator.
 
-    Closed form (seed 000 linear_hw, ballmill.md section 5): relative overlap x'' = -w0^2 x -
-    2 beta x', w0^2 = k / m_eff, beta = gamma_N / 2, w = sqrt(w0^2 - beta^2); x = (v/w) e^(-beta t)
-    sin(w t). The clipped force m_eff (w0^2 x + 2 beta x') reaches zero at w t_c = pi - atan2(2 beta
-    w, w^2 - beta^2), where the separation speed is v e^(-beta t_c) (so e = exp(-beta t_c)); the
-    largest overlap is at tan(w t) = w / beta. The contact end is interpolated between steps, an
-    error of order dt / t_c = 1e-3; the overlap is sampled every step, error O((w dt)^2).
+    Closed form (linear_hw of Buchholtz et al. 2000, ballmill.md section 5): relative overlap
+    x'' = -w0^2 x - 2 beta x', w0^2 = k / m_eff, beta = gamma_N / 2, w = sqrt(w0^2 - beta^2);
+    x = (v/w) e^(-beta t) sin(w t). The clipped force m_eff (w0^2 x + 2 beta x') reaches zero at
+    w t_c = pi - atan2(2 beta w, w^2 - beta^2), where the separation speed is v e^(-beta t_c) (so
+    e = exp(-beta t_c)); the largest overlap is at tan(w t) = w / beta. The contact end is
+    interpolated between steps, an error of order dt / t_c = 1e-3; the overlap is sampled every
+    step, error O((w dt)^2).
     """
     out = tmp_path / "c.nc"
     dt = 2e-7

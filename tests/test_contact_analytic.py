@@ -18,7 +18,7 @@ def run_collision(**overrides):
 @pytest.mark.parametrize("convention", ["clipped", "unclipped"])
 @pytest.mark.parametrize("target", ["particle", "wall"])
 def test_linear_hw_restitution_and_contact_time(convention, target):
-    """Seed 000 law, 2D disks: e and t_c for both end-of-contact conventions."""
+    """Law of Buchholtz et al. 2000, 2D disks: e and t_c for both end-of-contact conventions."""
     ds = run_collision(contact_law="linear_hw", dim=2, convention=convention, target=target)
     assert float(ds.restitution) == pytest.approx(float(ds.restitution_analytic), rel=TOL)
     assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
@@ -32,7 +32,7 @@ def test_linear_conventions_differ_as_predicted():
     assert float(b.restitution) > float(a.restitution)
 
 
-def test_seed000_numbers_for_1cm_disks():
+def test_buchholtz2000_numbers_for_1cm_disks():
     """Independent numbers of ballmill.md table 5: R = 1 cm, rho = 2 g/cm3, unit thickness, pair."""
     ds = run_collision(contact_law="linear_hw", dim=2, radius=0.01, density=2000.0, thickness=0.01,
                        normal_stiffness=8e3, normal_damping_rate=800.0, convention="unclipped")

@@ -322,7 +322,7 @@ def test_stirred_mill_net_power_is_the_agitator_work_rate():
 
 def critical_speed(drum_radius, grain_radius):
     """n_c [rev/s] at which a grain touching the wall (centre at R_eff) feels zero normal force
-    at the top: omega^2 R_eff = g (ballmill.md; seed 000)."""
+    at the top: omega^2 R_eff = g (ballmill.md; Buchholtz et al. 2000)."""
     return math.sqrt(G / (drum_radius - grain_radius)) / (2.0 * math.pi)
 
 

@@ -1,4 +1,5 @@
-"""Lubrication (seed 004) inside the compiled engine: forces, cutoffs, dynamics, energy, stability.
+"""Lubrication (the LabStar LS1 paper) inside the compiled engine: forces, cutoffs, dynamics,
+energy, stability.
 
 Every number here comes out of real ``Simulation`` runs (the compiled loop, its Verlet or Gear
 integrator, its neighbour list and its cutoffs), never from calling the lubrication kernels. The

@@ -45,7 +45,7 @@ def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3, seed=1):
             "size_distribution": (("snapshot", "size_class"), rng.random((3, 6)), {"units": "kg"}),
             "event_time": ("event", np.sort(rng.random(5)), {"units": "s"}),
             "fracture_frequency": (("gy", "gx"), rng.random((8, 8)), {"units": "s-1 m-2"}),
-            # a rate peaked at n/n_c = 1, as seed 000 reports
+            # a rate peaked at n/n_c = 1, as Buchholtz et al. 2000 reports
             "comminution_rate": ((), 10.0 * np.exp(-((n_over_nc - 1.0) ** 2)), {"units": "s-1"}),
             "comminution_rate_ci": ((), 0.5, {"units": "s-1"}),
         }

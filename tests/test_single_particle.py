@@ -1,4 +1,4 @@
-"""Scene single_particle against the analytic Tavares model (seed 002 section 4.1).
+"""Scene single_particle against the analytic Tavares model (Tavares et al. 2021, section 4.1).
 
 The scene uses the same compiled spec variant as tests/test_tavares_engine.py (3D Hertz-Mindlin,
 walls, no gravity, Tavares), so this file adds no kernel compilation of its own.
@@ -57,10 +57,10 @@ def test_breakage_fraction_within_99_percent_interval_of_eq1():
 
 
 def test_repeated_impacts_follow_the_damage_model():
-    """37.5 mm copper ore hit 10 times at 94.7 J/kg (seed 002 Fig. 11): the cumulative fraction
-    broken after every impact lies inside the 99 % interval of the damage model integrated over
-    the fracture-energy distribution, and each particle breaks at the impact that eqs 5-6 predict
-    from its own initial fracture energy."""
+    """37.5 mm copper ore hit 10 times at 94.7 J/kg (Fig. 11 of Tavares et al. 2021): the cumulative
+    fraction broken after every impact lies inside the 99 % interval of the damage model integrated
+    over the fracture-energy distribution, and each particle breaks at the impact that eqs 5-6
+    predict from its own initial fracture energy."""
     n, impacts, gamma = 150, 10, 3.0
     ds = _run(mode="repeated", diameter=0.0375, specific_energy=94.7, impacts=impacts,
               gamma=gamma, n_particles=n)
@@ -107,7 +107,7 @@ def test_drop_weight_sums_the_two_contacts():
     assert bool(ds["converged"].all())
 
 
-# Seed 002 (Tavares et al. 2021) Table 4, copper ore: E_inf [J/kg, stress-vs-steel basis], d0 [m],
+# Tavares et al. 2021, Table 4, copper ore: E_inf [J/kg, stress-vs-steel basis], d0 [m],
 # phi, sigma, A [%], b'; incomplete-beta alpha_n, beta_n of eq 10; Table 5: Y, nu (steel 210 GPa,
 # 0.3). Section 3.1: Emax/E50 = 4 in the single-particle verification.
 CU = dict(E_inf=213.5, d0=8.07e-3, phi=1.22, sigma=0.799, A=67.7, b_prime=0.029)
@@ -226,10 +226,10 @@ def test_binomial_intervals_and_pass_rule():
 
 
 def test_table2_comparison():
-    _, seed, ours, target = pred.table2_comparison()
-    assert seed[3] == pytest.approx(17.87, abs=0.01)  # Table 2 mean passing x = 1/2
+    _, paper, ours, target = pred.table2_comparison()
+    assert paper[3] == pytest.approx(17.87, abs=0.01)  # Table 2 mean passing x = 1/2
     assert np.abs(ours - target).max() < 0.05  # the families reproduce eq 10 exactly
-    assert np.abs(ours - seed).max() < 3.5
+    assert np.abs(ours - paper).max() < 3.5
 
 
 def test_absorbed_energy_inverts_the_damage_law():

@@ -143,7 +143,7 @@ def test_high_viscosity_pair_runs_stable_and_closes_energy():
 
 
 # ------------------------------------------------------------------------------------------------
-# fragments down to 1/20 of the parent size (Tavares breakage, seed 002)
+# fragments down to 1/20 of the parent size (Tavares breakage, Tavares et al. 2021)
 # ------------------------------------------------------------------------------------------------
 
 TAVARES = HERTZ  # with breakage=TavaresModel(...)
@@ -256,7 +256,7 @@ def test_fragments_squeezed_beyond_the_overlap_guard_stop_the_run_naming_the_pai
 
 
 # ------------------------------------------------------------------------------------------------
-# 4000 rpm: the stirred mill with lubrication (seed 004)
+# 4000 rpm: the stirred mill with lubrication (the LabStar LS1 paper)
 # ------------------------------------------------------------------------------------------------
 
 def test_stirred_mill_at_4000_rpm_closes_its_energy_balance():
@@ -298,7 +298,7 @@ def test_stirred_mill_at_4000_rpm_refuses_a_step_above_the_lubrication_limit():
 
 
 # ------------------------------------------------------------------------------------------------
-# ball mill at 2 n/n_c (seed 000, 2D)
+# ball mill at 2 n/n_c (Buchholtz et al. 2000, 2D)
 # ------------------------------------------------------------------------------------------------
 
 def test_ball_mill_at_twice_the_critical_speed_closes_its_energy_balance():

@@ -1,5 +1,6 @@
-"""Stirred media mill (seed 004): lubrication in the full engine, energy balance, compiled physics,
-bad input, outputs. Every engine run here uses the scene's wet periodic variant (one compile)."""
+"""Stirred media mill (the LabStar LS1 paper): lubrication in the full engine, energy balance,
+compiled physics, bad input, outputs. Every engine run here uses the scene's wet periodic variant
+(one compile)."""
 
 import json
 import math

@@ -1,7 +1,8 @@
-"""Tavares (UFRJ) breakage model: equations against independent references and seed 002 tables.
+"""Tavares (UFRJ) breakage model: equations against independent references and Tavares et al. 2021
+tables.
 
-References used: tavares.md (/work/shared/reference) section 5 damage table, seed 002 Fig 1
-example, Tables 1, 2, 4, 5 of seed 002, and numerical quadrature for the incomplete beta.
+References used: tavares.md (/work/shared/reference) section 5 damage table, Fig 1 example,
+Tables 1, 2, 4, 5 of Tavares et al. 2021, and numerical quadrature for the incomplete beta.
 """
 
 import math
@@ -40,7 +41,7 @@ def test_energy_share_particle_on_steel():
     assert tv.energy_share(60e9, STEEL_K) + tv.energy_share(STEEL_K, 60e9) == pytest.approx(1.0)
 
 
-def test_materials_from_seed_tables(mats):
+def test_materials_from_paper_tables(mats):
     assert set(mats) == {"copper_ore", "limestone", "granulite", "steel"}
     cu = mats["copper_ore"]
     assert (cu.density, cu.young, cu.poisson) == (2930.0, 52e9, 0.25)  # Table 5
@@ -148,9 +149,9 @@ def test_vectorised_sampling_over_sizes(mats):
     assert tv.sample_fracture_energy(cu, 0.01, 0.0) > 0.0  # a counter-based u = 0 is safe
 
 
-def test_seed_fig1_example():
-    """Seed 002 Fig 1 / section 2.2: median 347.3 J/kg, sigma 0.799 (copper ore), nearly no
-    truncation: a particle drawn at 0.71 has about 534.1 J/kg, and the 35.5th percentile is
+def test_paper_fig1_example():
+    """Tavares et al. 2021, Fig 1 / section 2.2: median 347.3 J/kg, sigma 0.799 (copper ore), nearly
+    no truncation: a particle drawn at 0.71 has about 534.1 J/kg, and the 35.5th percentile is
     258.0 J/kg. The figure's numbers are rounded (and the truncation it used is not stated), so
     1 % / 0.005 tolerances."""
     E50, sig = 347.3, 0.799
@@ -200,7 +201,7 @@ def test_damage_limits_and_monotonic():
 def test_t10_eq8_eq9(mats):
     cu = mats["copper_ore"]
     assert tv.t10_min(cu) == pytest.approx(67.7 * (1 - math.exp(-0.029)))  # 1.94 %
-    # the seed quotes 0.6 % to about 6 % for primary breakage
+    # the paper quotes 0.6 % to about 6 % for primary breakage
     assert all(0.6 < tv.t10_min(m) < 6 for m in mats.values() if m.breakable)
     assert tv.t10_prime(cu, 500.0, 100.0) == pytest.approx(67.7 * (1 - math.exp(-0.029 * 5)))
     up = tv.t10_prime(cu, 500.0, 100.0, kappa=1.38, placement="numerator")
@@ -278,7 +279,7 @@ def test_every_family_conserves_mass_exactly(n_classes):
             assert dd >= tab.edges[-1] * (1 - 1e-12)  # dummy spheres never below x_min
 
 
-# Seed 002 Table 2 (t10' = 3 %), kept once with the verification module.
+# Tavares et al. 2021, Table 2 (t10' = 3 %), kept once with the verification module.
 T2_SIZES, T2_COUNTS, T2_DUMMY, T2_PROB = TABLE2_SIZES, TABLE2_COUNTS, TABLE2_DUMMY, TABLE2_PROB
 
 
@@ -292,7 +293,7 @@ def _table2_passing():
     return 100 * np.array([mean[k + 1:].sum() for k in range(9)])
 
 
-def test_families_reproduce_seed_table2_at_3_percent(fam):
+def test_families_reproduce_paper_table2_at_3_percent(fam):
     """Our t10' = 3 % families against the paper's Table 2, sieve by sieve.
 
     At x = 1/2 and 1/4 (sieves that are t_n points: t2 = 17.61, t4 = 5.70) both must agree
@@ -370,7 +371,7 @@ def _check_progeny(pr, d_parent, rho):
 @pytest.mark.parametrize("ratio", [1.0, 4.0, 40.0])
 def test_break_particle_inside_parent_and_across_the_load(mats, ratio):
     cu = mats["copper_ore"]
-    d, d_min = 29e-3, 1.45e-3  # seed 002: 29 mm particles, dmin = 1/20 of the top size
+    d, d_min = 29e-3, 1.45e-3  # Tavares et al. 2021: 29 mm particles, dmin = 1/20 of the top size
     load = np.array([0.3, -0.2, 0.9])
     load /= np.linalg.norm(load)
     cos = []

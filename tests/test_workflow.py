@@ -203,7 +203,7 @@ def test_one_scene_target_plans_that_scene_only(workdir, scene, own, other):
 
 def test_slurm_profile_sizes_every_simulate_rule():
     """SLURM as written: every case rule gets threads and a wall-time limit (else the plugin's
-    30-minute default kills the seed-scale cases), threads fit a 2-CPU node, the status check
+    30-minute default kills the paper-scale cases), threads fit a 2-CPU node, the status check
     does not need an accounting database."""
     profile = yaml.safe_load((ROOT / "profiles" / "slurm" / "profile.yaml").read_text())
     text = "\n".join(p.read_text() for p in (ROOT / "workflow" / "rules").glob("*.smk"))

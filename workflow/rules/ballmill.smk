@@ -1,5 +1,5 @@
-# Ball mill 2D (seed 000): comminution rate vs rotation speed, fragment sizes, fracture and
-# pressure maps, force chains, and animated cases. Every case is one `millsim run ballmill2d`.
+# Ball mill 2D (Buchholtz et al. 2000): comminution rate vs rotation speed, fragment sizes, fracture
+# and pressure maps, force chains, and animated cases. Every case is one `millsim run ballmill2d`.
 #
 # `snakemake --lint` asks for a conda env or container per rule: every rule runs the `millsim`
 # installed with this workflow's own Python (see common.smk), so there is no second environment

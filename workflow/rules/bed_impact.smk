@@ -1,6 +1,6 @@
-# Particle-bed impact (seed 002, Figs 20-23): a steel ball dropped on hexagonal beds of 5.5 mm
-# particles that break by the Tavares model. Every case is one `millsim run bed_impact`; the cases
-# of all `bed_impact.sweeps` blocks are stacked into results/aggregate/bed_breakage.nc.
+# Particle-bed impact (Tavares et al. 2021, Figs 20-23): a steel ball dropped on hexagonal beds
+# of 5.5 mm particles that break by the Tavares model. Every case is one `millsim run bed_impact`;
+# the cases of all `bed_impact.sweeps` blocks are stacked into results/aggregate/bed_breakage.nc.
 #
 # A case path names all five swept parameters, e.g.
 # results/cases/bed_impact/material~copper_ore/rings~1/layers~1/impact_energy~3.05/seed~1/case.nc

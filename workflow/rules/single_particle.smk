@@ -1,5 +1,5 @@
-# Single-particle verification of the Tavares model (seed 002 section 4.1): simulations of N
-# particles per condition against the analytic model. Every case is one `millsim run
+# Single-particle verification of the Tavares model (Tavares et al. 2021, section 4.1): simulations
+# of N particles per condition against the analytic model. Every case is one `millsim run
 # single_particle`; three studies from config `single_particle`:
 #
 #   single_particle_probability    Fig. 8: breakage probability, mode x material x energy_ratio

@@ -1,5 +1,5 @@
-# Stirred media mill with pairwise lubrication (seed 004): power vs speed x viscosity, and the
-# three-stage power-draw calibration (friction, viscosity, prediction) against
+# Stirred media mill with pairwise lubrication (the LabStar LS1 paper): power vs speed x viscosity,
+# and the three-stage power-draw calibration (friction, viscosity, prediction) against
 # config/reference/stirred_mill_power.csv. Every case is one `millsim run stirred_mill`, cached;
 # the calibration stages are rules over those cases (stages 1 and 2 are checkpoints: the cases of
 # the next stage depend on the value they pick). Re-run only the calibration after replacing the

@@ -1,11 +1,11 @@
 """Write a synthetic-twin reference for the stirred-mill calibration (NOT a measurement).
 
-The seed's measured power curves exist only as figures, so no numbers are taken from them. This
-script runs the engine itself at a finer time step (``dt_factor``), another random seed and stated
-"true" parameters (friction, and one simulation viscosity per fluid), and writes the reference
-table in the schema of ``config/reference/stirred_mill_power.csv``: rpm, fluid, eta_exp,
-net_power, net_power_ci (the twin case's own 95 % half-width), source. For a twin, eta_exp is the
-generating eta_sim, so a working calibration returns eta_sim = eta_exp and mu = the stated
+The LabStar LS1 paper's measured power curves exist only as figures, so no numbers are taken from
+them. This script runs the engine itself at a finer time step (``dt_factor``), another random seed
+and stated "true" parameters (friction, and one simulation viscosity per fluid), and writes
+the reference table in the schema of ``config/reference/stirred_mill_power.csv``: rpm, fluid,
+eta_exp, net_power, net_power_ci (the twin case's own 95 % half-width), source. For a twin, eta_exp
+is the generating eta_sim, so a working calibration returns eta_sim = eta_exp and mu = the stated
 friction (the source names it; `millsim report` checks that the calibration recovers both).
 
     python workflow/scripts/stirred_mill_twin.py --config config/config.yaml \

@@ -1,5 +1,5 @@
-"""Ball-mill (seed 000) summaries of the aggregate: size snapshots reduced per case, the
-comminution rate relative to its maximum over n/n_c."""
+"""Ball-mill (Buchholtz et al. 2000) summaries of the aggregate: size snapshots reduced per case,
+the comminution rate relative to its maximum over n/n_c."""
 
 import xarray as xr
 
@@ -21,7 +21,8 @@ def case_summary(ds: xr.Dataset) -> xr.Dataset:
 
 
 def summary(ds: xr.Dataset) -> xr.Dataset:
-    """Comminution rate relative to its maximum over n/n_c (as in Fig. 6 of seed 000)."""
+    """Comminution rate relative to its maximum over n/n_c (as in Fig. 6
+    of Buchholtz et al. 2000)."""
     if "chain_count" in ds:  # a chain length absent from one case was counted zero times there
         ds["chain_count"] = ds["chain_count"].fillna(0.0)
     if "comminution_rate" not in ds:

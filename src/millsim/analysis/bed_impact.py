@@ -1,4 +1,4 @@
-"""Bed-impact study (seed 002 section 4.2): seed statistics of the aggregate.
+"""Bed-impact study (Tavares et al. 2021, section 4.2): seed statistics of the aggregate.
 
 ``millsim aggregate bed_impact`` stacks the cases along material, rings, layers, impact_energy and
 seed (a sparse grid: missing combinations are NaN); :func:`summary` (SCENE_SUMMARIES of

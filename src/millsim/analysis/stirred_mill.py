@@ -1,4 +1,4 @@
-"""Stirred-mill power-draw calibration (seed 004 section 4.1).
+"""Stirred-mill power-draw calibration (section 4.1 of the LabStar LS1 paper).
 
 Three stages, each a pure function over case files and a reference table, each a Snakemake rule
 calling ``millsim analyse stirred-mill STAGE`` (``millsim analyse stirred-mill --help``):
@@ -11,7 +11,7 @@ calling ``millsim analyse stirred-mill STAGE`` (``millsim analyse stirred-mill -
    reference: the refined estimate; extrapolated from the nearest segment, and flagged, when the
    grid does not bracket it).
 3. ``predict``: cases at the chosen mu and each fluid's eta_sim over all speeds, against the
-   reference curves (seed Fig. 7).
+   reference curves (Fig. 7 of the LS1 paper).
 
 Each stage's choice carries a 95 % interval (``interval``): the parameter values at which the
 simulated power, interpolated between the simulated values, stays consistent with the reference

@@ -1,16 +1,16 @@
-"""The pass rule and the aggregate of the Tavares verification study (seed 002 section 4.1, Figs 8,
-11, 13-16, Table 2). The analytic expectations the cases are compared with are computed by the
-scene (millsim.models.breakage.tavares_predictions) and stored in each case; the figures are
-millsim.plots.tavares.
+"""The pass rule and the aggregate of the Tavares verification study (Tavares et al. 2021,
+section 4.1, Figs 8, 11, 13-16, Table 2). The analytic expectations the cases are compared with are
+computed by the scene (millsim.models.breakage.tavares_predictions) and stored in each case;
+the figures are millsim.plots.tavares.
 
 Energy bases (docs/tavares.md section 2). The *set* specific energy of a test, ``Ek/m``, is the
 **stressing (input)** energy: 1/2 v^2 of a particle thrown at a plate, 1/2 M v^2 / m of a
-drop-weight striker of mass M. That is the x-axis of seed 002 Figs 8-11 and 16, and the basis on
-which Table 4's E_inf was fitted. The particle absorbs the share ``e = k_s/(k_p + k_s)`` of it
-(eq 4, both contacts of a drop-weight test are with steel), and the model compares the
-*absorbed* energy ``e Ek/m`` with its fracture energy, whose median is ``e E_inf[1 + (d0/d)^phi]``
-(eq 3). So the breakage probability against the input energy is eq 1 with median
-``E_inf[1 + (d0/d)^phi]`` -- the two factors cancel.
+drop-weight striker of mass M. That is the x-axis of Figs 8-11 and 16 of Tavares et al. 2021, and
+the basis on which Table 4's E_inf was fitted. The particle absorbs the share
+``e = k_s/(k_p + k_s)`` of it (eq 4, both contacts of a drop-weight test are with steel), and
+the model compares the *absorbed* energy ``e Ek/m`` with its fracture energy, whose median is
+``e E_inf[1 + (d0/d)^phi]`` (eq 3). So the breakage probability against the input energy is eq 1
+with median ``E_inf[1 + (d0/d)^phi]`` -- the two factors cancel.
 
 Analytic values:
 
@@ -84,14 +84,15 @@ def aggregate(paths):
         cases.append((case_parameters(ds), ds))
     out, coords = {}, {}
     attrs = {"source_cases": json.dumps([os.fspath(p) for p in paths]),
-             "title": "millsim Tavares model verification (seed 002 section 4.1): simulated "
-                      "against analytic breakage probabilities, repeated impacts and t10"}
+             "title": "millsim Tavares model verification (Tavares et al. 2021, section 4.1): "
+                      "simulated against analytic breakage probabilities, repeated impacts and t10"}
     for group in (_probability, _repeated, _fragmentation):
         group(cases, out, coords, attrs)
 
-    sieves, seed, ours, target = table2_comparison()
+    sieves, paper, ours, target = table2_comparison()
     coords["table2_sieve"] = ("table2_sieve", sieves, {"units": "1", "long_name": "relative size x/d"})
-    out["table2_seed"] = (("table2_sieve",), seed, {"units": "%", "long_name": "seed 002 Table 2 mean % passing"})
+    out["table2_paper"] = (("table2_sieve",), paper, {"units": "%",
+                           "long_name": "Tavares et al. 2021, Table 2 mean % passing"})
     out["table2_families"] = (("table2_sieve",), ours, {"units": "%", "long_name": "our families, mean % passing"})
     out["table2_target"] = (("table2_sieve",), target, {"units": "%", "long_name": "eq 10 target (Table 1 parameters)"})
     for name, c in coords.items():
@@ -107,7 +108,7 @@ def _inside(value, lo, hi, where):
 
 def _probability(cases, out, coords, attrs):
     """Breakage probability (single impact and drop weight): the cases without replacement (5.5 mm
-    in the seed); with replacement they are fragmentation cases of another size and go to t10 and
+    in the paper); with replacement they are fragmentation cases of another size and go to t10 and
     size distributions only."""
     prob = [(p, ds) for p, ds in cases
             if p["mode"] in ("single", "drop_weight") and not p.get("replacement", True)]

@@ -1,4 +1,5 @@
-"""Models the engine runs: contact laws and materials, lubrication, breakage (seeds 000, 002, 004).
+"""Models the engine runs: contact laws and materials, lubrication, breakage (Buchholtz et al. 2000,
+Tavares et al. 2021, the LabStar LS1 paper).
 
 Each is an object a scene hands to :class:`~millsim.engine.Simulation`; it brings the hooks the
 compiled loop calls and its own state layout (see :mod:`millsim.engine.models`).

@@ -20,10 +20,12 @@ a law never types or compiles it, which the tests check. Each law is reached by 
 one object the engine needs to know about a law: the same evaluation serves pairs and walls.
 
 Parameter rows (``p``) hold SI values, built by :mod:`millsim.models.materials`:
-- ``LINEAR_HW`` (seed 000, Haff-Werner friction): k_n [N/m], gamma_n [1/s], gamma_t [1/s], mu.
-- ``LINEAR_HISTORY`` (seed 004): k_n [N/m], k_t [N/m], zeta_n, zeta_t (damping ratios), mu.
-- ``HERTZ_MINDLIN`` (seed 002, EDEM no-slip form): E* [Pa], G* [Pa], 2 sqrt(5/6) |beta|, mu, mu_r,
-  and sqrt(2 E*), sqrt(8 G*) precomputed so that a contact costs two square roots.
+- ``LINEAR_HW`` (Buchholtz et al. 2000, Haff-Werner friction): k_n [N/m], gamma_n [1/s],
+  gamma_t [1/s], mu.
+- ``LINEAR_HISTORY`` (the LabStar LS1 paper): k_n [N/m], k_t [N/m], zeta_n, zeta_t (damping ratios),
+  mu.
+- ``HERTZ_MINDLIN`` (Tavares et al. 2021, EDEM no-slip form): E* [Pa], G* [Pa], 2 sqrt(5/6) |beta|,
+  mu, mu_r, and sqrt(2 E*), sqrt(8 G*) precomputed so that a contact costs two square roots.
 """
 
 import math

@@ -585,7 +585,7 @@ IMPLICIT_KERNELS = FluidKernels(_kernel(_pair_rows), _kernel(_no_wall_fluid), _k
 
 
 class Lubrication(ParticleModel):
-    """Pairwise lubrication (seed 004) as a fluid model of the engine.
+    """Pairwise lubrication (the LabStar LS1 paper) as a fluid model of the engine.
 
     Args:
         eta: viscosity [Pa s] (0: the hooks run but add nothing; a dry scene passes no fluid).

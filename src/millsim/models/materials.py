@@ -43,7 +43,7 @@ class Interaction:
 
     restitution, friction, rolling_friction: used by ``linear_history`` and ``hertz_mindlin``.
     normal_stiffness [N/m]: linear laws. tangential_stiffness_ratio: k_t / k_n (``linear_history``).
-    normal_damping_rate, tangential_damping_rate [1/s]: seed 000's gamma_N and gamma_T
+    normal_damping_rate, tangential_damping_rate [1/s]: gamma_N and gamma_T of Buchholtz et al. 2000
     (``linear_hw``, damping force m_eff * gamma * velocity).
     """
 

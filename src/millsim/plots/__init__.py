@@ -58,123 +58,129 @@ _FEW = ("Fewer than 3 simulated points are drawn without a connecting line, and 
         "how many.")
 
 _ENTRIES = (
-    # ---- ball mill 2D (seed 000) ----
+    # ---- ball mill 2D (Buchholtz et al. 2000) ----
     Plot("ballmill_rate", "ballmill:rate", "aggregate:ballmill",
          "Comminution rate (fracture events per second in steady state) relative to its maximum, "
-         "against the rotation speed as a fraction of the critical speed n_c (Fig. 6 of seed "
-         "000). Error bars: 95% confidence half-width from block averages. Black line: the "
-         "Bond/Austin speed factor phi(1 - 0.1/2^(9 - 10 phi)), normalised; an empirical shape for "
-         "mill power, not for comminution rate, so only the shape is comparable. Lower panel: "
-         "mean drive power of the same cases."),
+         "against the rotation speed as a fraction of the critical speed n_c (Fig. 6 of "
+         "Buchholtz et al. 2000). Error bars: 95% confidence half-width from block averages. Black "
+         "line: the Bond/Austin speed factor phi(1 - 0.1/2^(9 - 10 phi)), normalised; an empirical "
+         "shape for mill power, not for comminution rate, so only the shape is comparable. Lower "
+         "panel: mean drive power of the same cases."),
     Plot("ballmill_size_distributions", "ballmill:size_distributions", "aggregate:ballmill",
-         "Fragment size distribution (Fig. 5 of seed 000): mass fraction of grains per radius "
-         "class for each rotation speed. Line: mean over the recorded snapshots; band: one "
-         "standard deviation over the snapshots (the temporal fluctuation)."),
+         "Fragment size distribution (Fig. 5 of Buchholtz et al. 2000): mass fraction of grains "
+         "per radius class for each rotation speed. Line: mean over the recorded snapshots; band: "
+         "one standard deviation over the snapshots (the temporal fluctuation)."),
     Plot("ballmill_fragmentation_maps", "ballmill:fragmentation_maps", "aggregate:ballmill",
-         "Where grains break (Fig. 7 of seed 000): fracture events per second and unit area on a "
-         "grid over the drum cross-section (mm), one panel per rotation speed, one grey scale for "
-         "all panels."),
+         "Where grains break (Fig. 7 of Buchholtz et al. 2000): fracture events per second and "
+         "unit area on a grid over the drum cross-section (mm), one panel per rotation speed, one "
+         "grey scale for all panels."),
     Plot("ballmill_pressure_maps", "ballmill:pressure_maps", "aggregate:ballmill_forcechain",
-         "Time-averaged local pressure (Fig. 12 of seed 000) in the force-chain study, run "
-         "without fragmentation: one panel per rotation speed, one grey scale for all panels, "
-         "ending at the 99th percentile of the non-zero cells (the few cells above it are "
+         "Time-averaged local pressure (Fig. 12 of Buchholtz et al. 2000) in the force-chain "
+         "study, run without fragmentation: one panel per rotation speed, one grey scale for all "
+         "panels, ending at the 99th percentile of the non-zero cells (the few cells above it are "
          "black; the colour bar gives the cap)."),
     Plot("ballmill_force_chains", "ballmill:force_chains", "aggregate:ballmill_forcechain",
-         "Force-chain statistics (Figs. 10-11 of seed 000), run without fragmentation: number of "
-         "chains per length, mean maximum pressure in a chain per length, and mean force against "
-         "the relative position along a chain. One line per rotation speed."),
+         "Force-chain statistics (Figs. 10-11 of Buchholtz et al. 2000), run without "
+         "fragmentation: number of chains per length, mean maximum pressure in a chain per length, "
+         "and mean force against the relative position along a chain. One line per rotation "
+         "speed."),
     Plot("animation", "animation:animation", "snapshots",
          "Animation of a case from its particle snapshots: grains coloured by speed, drum wall "
          "and lifter particles grey."),
-    # ---- bed impact (seed 002 section 4.2) ----
+    # ---- bed impact (Tavares et al. 2021, section 4.2) ----
     Plot("bed_broken_mass", "bed_impact:broken_mass", "aggregate:bed_breakage",
          "Broken mass (mass passing 4.75 mm, incl. dummy spheres and fines, % of the bed) after "
          "one impact of the 88 mm, 2.78 kg steel ball, against the impact energy per bed "
-         "configuration and material; the dotted line marks 3.05 J, the energy of seed 002 Fig. "
-         "22. Where several configurations were run at 3.05 J (config/paper.yaml), a second panel "
-         "has one bar per configuration, as Fig. 22. Points: mean over seeds; whiskers: standard "
-         "deviation (none with one seed); dots: single seeds. Simulation only: the seed's "
-         "measurements exist only as a figure and are not reproduced here. " + _FEW),
+         "configuration and material; the dotted line marks 3.05 J, the energy of Fig. 22 "
+         "of Tavares et al. 2021. Where several configurations were run at 3.05 J "
+         "(config/paper.yaml), a second panel has one bar per configuration, as Fig. 22. Points: "
+         "mean over seeds; whiskers: standard deviation (none with one seed); dots: single seeds. "
+         "Simulation only: the paper's measurements exist only as a figure and are not reproduced "
+         "here. " + _FEW),
     Plot("bed_capture_radius", "bed_impact:capture_radius", "aggregate:bed_breakage",
          "Capture radius (largest horizontal distance from the ball's axis of an original bed "
          "particle that broke; 0 when only the central particle broke) against impact energy, as "
-         "seed 002 Fig. 20. Points: mean over seeds; dots: single seeds; dotted lines: the radii "
-         "of the bed's rings, the only values a monolayer's capture radius can take. " + _FEW),
+         "Fig. 20 of Tavares et al. 2021. Points: mean over seeds; dots: single seeds; dotted "
+         "lines: the radii of the bed's rings, the only values a monolayer's capture radius can "
+         "take. " + _FEW),
     Plot("bed_size_distributions", "bed_impact:size_distributions", "aggregate:bed_breakage",
          "Product size distributions (cumulative % passing; dummy spheres and unresolved fines "
          "spread below their size by eq 11), mean over seeds: one panel per bed run at several "
-         "impact energies, a line per energy (seed 002 Fig. 21), and one panel per material run "
-         "in several bed configurations, a line per configuration at 3.05 J (Fig. 23). With one "
-         "bed at one energy, that one distribution."),
-    # ---- Tavares single-particle verification (seed 002 section 4.1) ----
+         "impact energies, a line per energy (Fig. 21 of Tavares et al. 2021), and one panel per "
+         "material run in several bed configurations, a line per configuration at 3.05 J "
+         "(Fig. 23). With one bed at one energy, that one distribution."),
+    # ---- Tavares single-particle verification (Tavares et al. 2021, section 4.1) ----
     Plot("tavares_probability", "tavares:probability", "aggregate:tavares_verification",
          "Breakage probability against the input (stressing) specific energy Ek/m of 5.5 mm "
          "particles, single impact on a steel plate (filled) and drop-weight test (open; striker "
-         "and anvil contacts summed), as seed 002 Fig. 8. Lines: eq 1 at the absorbed energy "
-         "k_s/(k_p+k_s) Ek/m on a dense grid; bars: 95% Clopper-Pearson intervals. Pass rule: "
-         "the line inside the bar at >= 90% of the points of each test (verdicts on the report's "
-         "landing page)."),
+         "and anvil contacts summed), as Fig. 8 of Tavares et al. 2021. Lines: eq 1 at "
+         "the absorbed energy k_s/(k_p+k_s) Ek/m on a dense grid; bars: 95% Clopper-Pearson "
+         "intervals. Pass rule: the line inside the bar at >= 90% of the points of each test "
+         "(verdicts on the report's landing page)."),
     Plot("tavares_repeated", "tavares:repeated", "aggregate:tavares_verification",
          "Cumulative fraction broken after each of n repeated impacts at one energy, one colour "
-         "per damage coefficient gamma, as seed 002 Fig. 11. Lines: eqs 1-6 integrated over the "
-         "fracture-energy distribution; symbols: simulation with 95% Clopper-Pearson intervals. "
-         "Pass rule: the line inside the interval after >= 90% of the impacts."),
+         "per damage coefficient gamma, as Fig. 11 of Tavares et al. 2021. Lines: eqs 1-6 "
+         "integrated over the fracture-energy distribution; symbols: simulation with 95% "
+         "Clopper-Pearson intervals. Pass rule: the line inside the interval after >= 90% "
+         "of the impacts."),
     Plot("tavares_t10", "tavares:t10", "aggregate:tavares_verification",
          "t10 of the broken particles' product (fines included) against input specific energy, as "
-         "seed 002 Fig. 16, for each way of deciding when a particle breaks (filled: at the first "
-         "reach of its fracture energy; open: at the end of loading). Solid: eq 7 with E50b the "
-         "median fracture energy of the broken particles, dotted: with the median of all, on a "
-         "dense grid of energies; dashed: eq 9 (breakage at exactly the fracture energy). Bars: "
-         "95% bootstrap intervals over particles. Pass rule: the solid line inside the bar at "
-         ">= 90% of the energies. " + _FEW),
+         "Fig. 16 of Tavares et al. 2021, for each way of deciding when a particle breaks (filled: "
+         "at the first reach of its fracture energy; open: at the end of loading). Solid: eq 7 "
+         "with E50b the median fracture energy of the broken particles, dotted: with the median "
+         "of all, on a dense grid of energies; dashed: eq 9 (breakage at exactly the fracture "
+         "energy). Bars: 95% bootstrap intervals over particles. Pass rule: the solid line inside "
+         "the bar at >= 90% of the energies. " + _FEW),
     Plot("tavares_size_distributions", "tavares:size_distributions",
          "aggregate:tavares_verification",
          "Cumulative size distribution of the broken particles' product, one panel per "
          "fragmentation case, one colour per energy: symbols, the simulation (dummy class spread "
-         "below x_min by eq 11); lines, eq 10 at the eq 7 t10 on a dense grid of sizes, as seed "
-         "002 Figs 13-15. Black dashed: smallest family size 0.21 d; red dashed: global minimum "
-         "size d/20."),
+         "below x_min by eq 11); lines, eq 10 at the eq 7 t10 on a dense grid of sizes, as "
+         "Figs 13-15 of Tavares et al. 2021. Black dashed: smallest family size 0.21 d; red "
+         "dashed: global minimum size d/20."),
     Plot("tavares_table2", "tavares:table2", "aggregate:tavares_verification",
          "Mean cumulative % passing of the progeny families generated for t10' = 3% (dots) "
-         "against seed 002 Table 2 (open squares) and the eq 10 target with the Table 1 average "
-         "parameters (line, dense grid)."),
-    # ---- stirred media mill (seed 004) ----
+         "against Table 2 of Tavares et al. 2021 (open squares) and the eq 10 target with "
+         "the Table 1 average parameters (line, dense grid)."),
+    # ---- stirred media mill (the LabStar LS1 paper) ----
     Plot("stirred_mill_power", "stirred_mill:power", "aggregate:stirred_mill",
          "Net power against agitator speed, one colour per simulation viscosity, with 95% "
          "block-mean intervals, from the aggregate of the power study. " + _FEW + " " + _STIRRED),
     Plot("stirred_mill_typology", "stirred_mill:typology", "aggregate:stirred_mill",
-         "Top: share of the dissipated energy by contact typology per case (seed 004 Fig. 9), "
-         "signed, one bar per typology from 0 with its value: the rolling part of the tangential "
-         "dissipation can be negative (friction drives bead spin that lubrication then "
-         "dissipates; docs/stirred_mill.md), so it is drawn below 0, and the shares of a case sum "
-         "to 100% (written above it with the dissipated power). Torsion is 0 in this model and "
-         "not drawn. Bottom: energy-balance residual (agitator work - changes of kinetic, "
-         "potential and elastic energy - dissipation) in % of the work, on its own scale with "
-         "each value written; the tolerance is +-2%. " + _STIRRED),
+         "Top: share of the dissipated energy by contact typology per case (Fig. 9 "
+         "of the LS1 paper), signed, one bar per typology from 0 with its value: the rolling part "
+         "of the tangential dissipation can be negative (friction drives bead spin that "
+         "lubrication then dissipates; docs/stirred_mill.md), so it is drawn below 0, and "
+         "the shares of a case sum to 100% (written above it with the dissipated power). Torsion "
+         "is 0 in this model and not drawn. Bottom: energy-balance residual (agitator work - "
+         "changes of kinetic, potential and elastic energy - dissipation) in % of the work, on its "
+         "own scale with each value written; the tolerance is +-2%. " + _STIRRED),
     Plot("stirred_mill_regions", "stirred_mill:regions", "aggregate:stirred_mill",
          "Relative bead-bead collision frequency in 9 regions, rings 1-3 x front/centre/back "
-         "(seed 004 Fig. 8), one panel per case, one colour scale for all panels. " + _STIRRED),
+         "(Fig. 8 of the LS1 paper), one panel per case, one colour scale for all "
+         "panels. " + _STIRRED),
     Plot("stirred_mill_velocity", "stirred_mill:velocity", "aggregate:stirred_mill",
          "Coarse-grained translational (left, arrows: in-plane direction) and rotational (right) "
-         "bead speed on an axial slab (seed 004 Fig. 11), one row per case; one colour scale per "
-         "quantity for all cases, ending at the 99th percentile of the cells (the few cells "
-         "above it, near walls and holes crossed by few beads, take the top colour). " + _STIRRED),
+         "bead speed on an axial slab (Fig. 11 of the LS1 paper), one row per case; one colour "
+         "scale per quantity for all cases, ending at the 99th percentile of the cells (the few "
+         "cells above it, near walls and holes crossed by few beads, take the top "
+         "colour). " + _STIRRED),
     Plot("stirred_mill_friction", "stirred_mill:friction", "table:stirred_mill_friction",
-         "Power-draw calibration, stage 1 (seed 004 Fig. 5). a: dry power against speed per "
-         "friction coefficient (95% intervals) with the reference (open squares). b: sum of "
+         "Power-draw calibration, stage 1 (Fig. 5 of the LS1 paper). a: dry power against speed "
+         "per friction coefficient (95% intervals) with the reference (open squares). b: sum of "
          "squared residuals per friction; its minimum is the calibrated friction (red line); "
          "shaded: the 95% interval, the frictions at which the power interpolated between the "
          "simulated ones stays within the combined simulation and reference intervals "
          "(millsim.analysis.stirred_mill.interval). " + _FEW + " " + _SYNTHETIC),
     Plot("stirred_mill_viscosity", "stirred_mill:viscosity", "table:stirred_mill_viscosity",
-         "Power-draw calibration, stage 2 (seed 004 Fig. 6): power at the calibration speed "
-         "against the simulation viscosity (95% intervals), with the reference power of each "
+         "Power-draw calibration, stage 2 (Fig. 6 of the LS1 paper): power at the calibration "
+         "speed against the simulation viscosity (95% intervals), with the reference power of each "
          "fluid at its measured viscosity (open squares) and, at that power, the 95% interval of "
          "the simulation viscosity consistent with it (bars). " + _SYNTHETIC),
     Plot("stirred_mill_prediction", "stirred_mill:prediction", "table:stirred_mill_prediction",
-         "Power-draw calibration, stage 3 (seed 004 Fig. 7): power at the calibrated friction and "
-         "simulation viscosities (filled) against the reference (open), per fluid, with 95% "
-         "intervals. " + _FEW + " " + _SYNTHETIC),
+         "Power-draw calibration, stage 3 (Fig. 7 of the LS1 paper): power at the calibrated "
+         "friction and simulation viscosities (filled) against the reference (open), per fluid, "
+         "with 95% intervals. " + _FEW + " " + _SYNTHETIC),
     # ---- accuracy: error against run time ----
     Plot("error_vs_runtime_{name}", "accuracy:error_vs_runtime", "aggregate:accuracy",
          "Error against run time of one accuracy study: for each observable, the error of the mean "

@@ -1,4 +1,4 @@
-"""Ball-mill figures (seed 000) from an aggregate of ``millsim aggregate ballmill2d``.
+"""Ball-mill figures (Buchholtz et al. 2000) from an aggregate of ``millsim aggregate ballmill2d``.
 
 Each function draws one figure of the registry (millsim.plots: ``ballmill_<name>``). Axis labels
 take their units from the variables' ``units`` attributes. Matplotlib without pyplot state.

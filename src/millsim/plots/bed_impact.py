@@ -1,15 +1,16 @@
-"""Bed-impact figures (seed 002 Figs 20-23) from the aggregate of ``millsim aggregate bed_impact``
-(``results/aggregate/bed_breakage.nc``, with the seed statistics of millsim.analysis.bed_impact):
+"""Bed-impact figures (Figs 20-23 of Tavares et al. 2021) from the aggregate
+of ``millsim aggregate bed_impact`` (``results/aggregate/bed_breakage.nc``, with the seed statistics
+of millsim.analysis.bed_impact):
 
-- ``bed_broken_mass`` (seed Fig. 22): broken mass (% passing 4.75 mm) against impact energy per
-  bed configuration and material; and, where several configurations were run at the reference
+- ``bed_broken_mass`` (Fig. 22 of the paper): broken mass (% passing 4.75 mm) against impact energy
+  per bed configuration and material; and, where several configurations were run at the reference
   energy (3.05 J, or the energy closest to it), one bar per configuration there;
-- ``bed_capture_radius`` (seed Fig. 20): capture radius against impact energy;
-- ``bed_size_distributions`` (seed Figs 21 and 23): product size distributions, one panel per bed
-  run at several energies (a line per energy) and one per material run in several configurations
-  at the reference energy (a line per configuration).
+- ``bed_capture_radius`` (Fig. 20 of the paper): capture radius against impact energy;
+- ``bed_size_distributions`` (Figs 21 and 23 of the paper): product size distributions, one panel
+  per bed run at several energies (a line per energy) and one per material run in several
+  configurations at the reference energy (a line per configuration).
 
-The seed's measured values exist only as figures; nothing here draws or stores them.
+The paper's measured values exist only as figures; nothing here draws or stores them.
 """
 
 import matplotlib
@@ -19,7 +20,7 @@ from matplotlib.figure import Figure
 
 from .style import few_points_note, label, points
 
-REFERENCE_ENERGY = 3.05  # J, seed Figs 22-23
+REFERENCE_ENERGY = 3.05  # J, Figs 22-23 of the paper
 ENERGY = label("impact energy", "J")
 
 
@@ -56,8 +57,8 @@ def _seeds_note(ds):
 
 
 def broken_mass(ds: xr.Dataset, out: str) -> None:
-    """Seed Fig. 22: broken mass against impact energy per bed (mean +- sd over seeds, single
-    seeds as dots); bars per configuration at the reference energy where several were run."""
+    """Fig. 22 of the paper: broken mass against impact energy per bed (mean +- sd over seeds,
+    single seeds as dots); bars per configuration at the reference energy where several were run."""
     e_ref = _reference_energy(ds)
     at_ref = ds.sel(impact_energy=e_ref)
     configs = _configs(at_ref)
@@ -76,7 +77,8 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
             for s in range(per_seed.shape[-1]):
                 ax.plot(e, per_seed[:, s], ".", color=c, alpha=0.4)
     few_points_note(ax, n, "energy")
-    ax.axvline(e_ref, color="0.5", ls=":", lw=1, label=f"{e_ref:g} J (seed Fig. 22)")
+    ax.axvline(e_ref, color="0.5", ls=":", lw=1,
+               label=f"{e_ref:g} J (Fig. 22 of Tavares et al. 2021)")
     ax.set(xscale="log", xlabel=ENERGY, ylabel="broken mass, passing 4.75 mm [%]",
            ylim=(0, 105), title=f"Broken mass against impact energy ({_seeds_note(ds)})")
     ax.legend(loc="upper left")
@@ -93,14 +95,15 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
                   label=str(mat).replace("_", " "))
         b.set_xticks(x, [c[2] for c in configs], rotation=20, ha="right")
         b.set(xlabel="bed configuration", ylabel="broken mass, passing 4.75 mm [%]",
-              ylim=(0, 105), title=f"Per bed configuration at {e_ref:g} J (seed Fig. 22)")
+              ylim=(0, 105),
+              title=f"Per bed configuration at {e_ref:g} J (Fig. 22 of Tavares et al. 2021)")
         b.grid(False, axis="x")
         b.legend()
     fig.savefig(out)
 
 
 def capture_radius(ds: xr.Dataset, out: str) -> None:
-    """Seed Fig. 20: capture radius against impact energy (mean over seeds, single seeds as
+    """Fig. 20 of the paper: capture radius against impact energy (mean over seeds, single seeds as
     dots), with the radii of the bed's rings as reference lines."""
     fig = Figure(figsize=(6.2, 4.3), layout="constrained")
     ax = fig.subplots()
@@ -130,8 +133,8 @@ def capture_radius(ds: xr.Dataset, out: str) -> None:
 
 
 def size_distributions(ds: xr.Dataset, out: str) -> None:
-    """Seed Figs. 21 and 23: product size distributions (mean over seeds), per impact energy for
-    every bed run at several energies, and per bed configuration at the reference energy for
+    """Figs. 21 and 23 of the paper: product size distributions (mean over seeds), per impact energy
+    for every bed run at several energies, and per bed configuration at the reference energy for
     every material run in several configurations."""
     panels = []
     energies = ds["impact_energy"].values
@@ -145,14 +148,14 @@ def size_distributions(ds: xr.Dataset, out: str) -> None:
         lines = [(name if float(var[1:].max()) > 0 else f"{name}: nothing broke", c, var)
                  for name, c, var in lines]
         if len(lines) > 1:
-            panels.append((f"{lab}: per impact energy (seed Fig. 21)", lines))
+            panels.append((f"{lab}: per impact energy (Fig. 21 of Tavares et al. 2021)", lines))
     e_ref = _reference_energy(ds)
     at_ref = ds.sel(impact_energy=e_ref)
     for mat in at_ref["material"].values:
         configs = _configs(at_ref.sel(material=mat))
         if len(configs) > 1:
             panels.append((f"{str(mat).replace('_', ' ')}: per bed configuration at {e_ref:g} J "
-                           "(seed Fig. 23)",
+                           "(Fig. 23 of Tavares et al. 2021)",
                            [(lab, f"C{k % 10}", at_ref["passing_fraction_mean"].sel(
                                material=mat, rings=r, layers=lay))
                             for k, (r, lay, lab) in enumerate(configs)]))

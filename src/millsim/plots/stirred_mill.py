@@ -1,6 +1,6 @@
-"""Stirred-mill figures (seed 004): power curves, calibration residuals (Figs 5-7), contact
-typology bars (Fig 9), collision-frequency region maps (Fig 8) and coarse-grained velocity fields
-(Fig 11). Matplotlib without pyplot state; inputs are the aggregate netCDF of
+"""Stirred-mill figures (the LabStar LS1 paper): power curves, calibration residuals (Figs 5-7),
+contact typology bars (Fig 9), collision-frequency region maps (Fig 8) and coarse-grained velocity
+fields (Fig 11). Matplotlib without pyplot state; inputs are the aggregate netCDF of
 ``millsim aggregate stirred_mill`` or the calibration CSV tables of ``millsim analyse stirred-mill``.
 """
 
@@ -190,8 +190,8 @@ def _replicates(t):
 
 
 def friction(t, out):
-    """Seed Fig. 5: dry power vs speed per friction with the reference; residuals vs friction
-    (from the stage 1 residual table), with the chosen friction and its 95 % interval."""
+    """Fig. 5 of the LS1 paper: dry power vs speed per friction with the reference; residuals vs
+    friction (from the stage 1 residual table), with the chosen friction and its 95 % interval."""
     s = friction_ssr(t)
     fig = Figure(figsize=(10.5, 4.2), layout="constrained")
     a, b = fig.subplots(1, 2)
@@ -223,8 +223,8 @@ def friction(t, out):
 
 
 def viscosity(t, out):
-    """Seed Fig. 6: power at the calibration speed vs eta_sim; reference per fluid at its
-    viscosity, with the eta_sim interval consistent with it."""
+    """Fig. 6 of the LS1 paper: power at the calibration speed vs eta_sim; reference per fluid at
+    its viscosity, with the eta_sim interval consistent with it."""
     from ..analysis.stirred_mill import viscosity_interval
 
     fig = Figure(figsize=(6.5, 4.4), layout="constrained")
@@ -250,7 +250,7 @@ def viscosity(t, out):
 
 
 def prediction(t, out):
-    """Seed Fig. 7: calibrated power curves vs reference, per fluid."""
+    """Fig. 7 of the LS1 paper: calibrated power curves vs reference, per fluid."""
     fig = Figure(figsize=(6.5, 4.4), layout="constrained")
     ax = fig.subplots()
     n = t.groupby("fluid")["rpm"].nunique().max()

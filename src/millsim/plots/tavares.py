@@ -1,7 +1,7 @@
-"""Tavares single-particle verification figures (seed 002 section 4.1, Figs 8, 11, 13-16, Table 2)
-from the aggregate of ``millsim analyse tavares aggregate`` (tavares_verification.nc); the model
-lines are the analytic predictions of millsim.models.breakage.tavares_predictions. Matplotlib
-without pyplot state.
+"""Tavares single-particle verification figures (Tavares et al. 2021, section 4.1, Figs 8, 11,
+13-16, Table 2) from the aggregate of ``millsim analyse tavares aggregate``
+(tavares_verification.nc); the model lines are the analytic predictions
+of millsim.models.breakage.tavares_predictions. Matplotlib without pyplot state.
 """
 
 import math
@@ -27,8 +27,8 @@ def _figure(figsize):
 
 
 def probability(ds, out):
-    """Seed 002 Fig. 8: breakage probability vs input specific energy, 3 materials, single impact
-    and drop weight; analytic eq 1 curves and 95 % intervals."""
+    """Fig. 8 of Tavares et al. 2021: breakage probability vs input specific energy, 3 materials,
+    single impact and drop weight; analytic eq 1 curves and 95 % intervals."""
     fig = _figure((7.0, 4.6))
     ax = fig.subplots()
     colours = matplotlib.colormaps["tab10"]
@@ -55,13 +55,14 @@ def probability(ds, out):
                         mfc="white" if mode == "drop_weight" else None, ls="none",
                         label=f"{mat_name}: {mode} (simulation, 95 % interval)")
     ax.set(xscale="log", xlabel=ENERGY, ylabel="fraction broken", ylim=(-0.02, 1.02),
-           title="Breakage probability: simulation vs model (seed 002 Fig. 8)")
+           title="Breakage probability: simulation vs model (Fig. 8 of Tavares et al. 2021)")
     ax.legend(loc="upper left")
     fig.savefig(out)
 
 
 def repeated(ds, out):
-    """Seed 002 Fig. 11: cumulative fraction broken after each repeated impact, several gamma."""
+    """Fig. 11 of Tavares et al. 2021: cumulative fraction broken after each repeated impact,
+    several gamma."""
     fig = _figure((6.5, 4.4))
     ax = fig.subplots()
     colours = matplotlib.colormaps["viridis"]
@@ -81,7 +82,7 @@ def repeated(ds, out):
            title=f"Repeated impacts: {ds.attrs.get('rep_material', '')}, "
                  f"{1e3 * float(ds.attrs.get('rep_diameter_m', math.nan)):g} mm at "
                  f"{float(ds.attrs.get('rep_specific_energy_J_per_kg', math.nan)):g} J kg$^{{-1}}$ "
-                 "(seed 002 Fig. 11)")
+                 "(Fig. 11 of Tavares et al. 2021)")
     ax.xaxis.get_major_locator().set_params(integer=True)
     ax.legend(loc="lower right")
     fig.savefig(out)
@@ -96,8 +97,8 @@ def _frag_model(ds, i):
 
 
 def t10(ds, out):
-    """Seed 002 Fig. 16: t10 of the product vs input specific energy, simulation vs eq 7 on a
-    dense grid. Colour: material/mode/size; marker: when particles break (breakage_at)."""
+    """Fig. 16 of Tavares et al. 2021: t10 of the product vs input specific energy, simulation vs
+    eq 7 on a dense grid. Colour: material/mode/size; marker: when particles break (breakage_at)."""
     fig = _figure((7.5, 5.0))
     ax = fig.subplots()
     colours = matplotlib.colormaps["tab10"]
@@ -130,14 +131,16 @@ def t10(ds, out):
                     ls="none", label=f"{group}, {at.replace('_', ' ')} (simulation, 95 % interval)")
     few_points_note(ax, n, "energy")
     ax.set(xscale="log", xlabel=ENERGY, ylabel=T10, ylim=(0, None),
-           title=f"{SYMBOL['t10']} of the broken particles' product vs energy (seed 002 Fig. 16)")
+           title=f"{SYMBOL['t10']} of the broken particles' product vs energy "
+                 "(Fig. 16 of Tavares et al. 2021)")
     ax.legend(loc="upper left")
     fig.savefig(out)
 
 
 def size_distributions(ds, out):
-    """Seed 002 Figs. 13-15: cumulative product size distribution of the broken particles, with the
-    fines extension (eq 11) below the smallest family size; lines: eq 10 model on a dense grid."""
+    """Figs. 13-15 of Tavares et al. 2021: cumulative product size distribution of the broken
+    particles, with the fines extension (eq 11) below the smallest family size; lines: eq 10 model
+    on a dense grid."""
     n = ds.sizes["frag_case"]
     cols = min(n, 2)
     rows = -(-n // cols)
@@ -174,14 +177,16 @@ def size_distributions(ds, out):
 
 
 def table2(ds, out):
-    """Seed 002 Table 2: mean % passing of the t10' = 3 % families, ours vs the paper's."""
+    """Table 2 of Tavares et al. 2021: mean % passing of the t10' = 3 % families, ours vs
+    the paper's."""
     fig = _figure((6.0, 4.2))
     ax = fig.subplots()
     x = ds["table2_sieve"].values
     xd = dense(x.min(), x.max(), log=True)
     ax.plot(xd, tavares.cumulative_passing(3.0, xd, tavares.TABLE1_AVERAGE), "k-", lw=1,
             label="eq 10 target (Table 1 average parameters)")
-    ax.plot(x, ds["table2_seed"], "s", mfc="none", label="seed 002 Table 2 (7 families)")
+    ax.plot(x, ds["table2_paper"], "s", mfc="none",
+            label="Tavares et al. 2021, Table 2 (7 families)")
     ax.plot(x, ds["table2_families"], "o", ms=4, label="millsim families")
     ax.set(xscale="log", yscale="log", xlabel="relative size x/d", ylabel="cumulative passing [%]",
            title=f"Progeny families at {SYMBOL['t10']}' = 3 %")

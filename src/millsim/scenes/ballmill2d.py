@@ -1,4 +1,5 @@
-"""Scene ``ballmill2d``: dry autogenous comminution in a rotating 2D drum with lifters (seed 000).
+"""Scene ``ballmill2d``: dry autogenous comminution in a rotating 2D drum with lifters
+(Buchholtz et al. 2000).
 
 Buchholtz, Freund & Poeschel, Eur. Phys. J. B 16, 169 (2000), restated in
 ``shared/reference/ballmill.md``. The paper's cgs constants are converted here, at the edge:
@@ -365,5 +366,5 @@ class BallMillCase(Case):
                                       {"units": "kg", "long_name": "grains + pending dust - initial grain mass"})
 
 
-register(Scene("ballmill2d", "2D ball mill with lifters: comminution rate, maps, force chains (seed 000)",
-               PARAMS, BallMillCase, (_check,)))
+register(Scene("ballmill2d", "2D ball mill with lifters: comminution rate, maps, force chains "
+               "(Buchholtz et al. 2000)", PARAMS, BallMillCase, (_check,)))

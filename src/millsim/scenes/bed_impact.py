@@ -1,4 +1,5 @@
-"""Scene ``bed_impact``: a steel ball dropped on an unconfined bed of 5.5 mm particles (seed 002).
+"""Scene ``bed_impact``: a steel ball dropped on an unconfined bed of 5.5 mm particles
+(Tavares et al. 2021).
 
 Tavares, Rodriguez, Sousani, Padros & Ooi (2021), section 3.1-3.2 and 4.2 (Figs 20-23):
 
@@ -14,8 +15,9 @@ Tavares, Rodriguez, Sousani, Padros & Ooi (2021), section 3.1-3.2 and 4.2 (Figs 
 - **Physics.** Hertz-Mindlin with the Table 5 elastic constants and the Table 6 contact
   parameters (restitution, static and rolling friction, EDEM standard rolling friction), gravity,
   the Tavares model with Emax/E50 = 100 (beds), d_min = 1/20 of the top size, cs = 0, kappa = 1,
-  progeny families with dummy spheres (seed 002 section 2.2-3.2). The time step is the engine's
-  recommended step for the smallest sphere that can ever exist (d_min), so it never changes.
+  progeny families with dummy spheres (Tavares et al. 2021, section 2.2-3.2). The time step is
+  the engine's recommended step for the smallest sphere that can ever exist (d_min), so it never
+  changes.
 
 Two stages. (1) The bed settles under gravity on the anvil, inside the holder, with breakage off
 (no damage while settling). (2) A new Simulation starts from the settled positions, velocities
@@ -46,7 +48,7 @@ from .driver import Case, Series
 
 G = 9.81
 BROKEN_SIEVE = 4.75e-3  # m: "mass of material passing the initial narrow size" (4.75-6.3 mm)
-# sqrt(2) test-sieve series [m], 6.3 mm down to 38 um (seed Fig. 23 reaches 0.1 mm)
+# sqrt(2) test-sieve series [m], 6.3 mm down to 38 um (Fig. 23 of the paper reaches 0.1 mm)
 SIEVES = np.array([6.3, 4.75, 3.35, 2.36, 1.7, 1.18, 0.85, 0.6, 0.425, 0.3, 0.212, 0.15, 0.106,
                    0.075, 0.053, 0.038]) * 1e-3
 X_MIN = tavares.SIEVE_RATIO ** -tavares.STANDARD_CLASSES  # dummy size / parent size
@@ -66,13 +68,16 @@ PARAMS = (
     Param("ball_mass", 2.78, "steel ball mass (sets the ball's density)", "kg", 0.0, lo_open=True),
     Param("ball_gap", 2e-4, "initial gap between ball and bed top", "m", 0.0, lo_open=True),
     Param("particle_steel_rolling_friction", 0.01,
-          "rolling friction particle-steel (Table 6: 0.01; the seed's sensitivity run: 0.33)", "1", 0.0),
+          "rolling friction particle-steel (Table 6: 0.01; the paper's sensitivity run: 0.33)", "1",
+          0.0),
     Param("breakage_at", "first_reach", "when a particle breaks: first_reach (absorbed energy of the "
           "event reaches E) or end_of_loading (when the event ends, t10' from its whole energy)",
           choices=BREAKAGE_AT),
-    Param("dummy_as", "spheres", "dummy class of the families: spheres (seed 002) or unresolved fines",
+    Param("dummy_as", "spheres",
+          "dummy class of the families: spheres (Tavares et al. 2021) or unresolved fines",
           choices=("spheres", "fines")),
-    Param("d_min_ratio", 0.05, "global minimum progeny size / particle diameter (seed: 1/20)", "1",
+    Param("d_min_ratio", 0.05,
+          "global minimum progeny size / particle diameter (Tavares et al. 2021: 1/20)", "1",
           0.0, 0.21, lo_open=True),
     Param("holder_gap", 0.02, "clearance between holder and outer particles / particle diameter", "1", 0.0),
     Param("settle_time", 0.004, "settling time of the bed before the drop (breakage off)", "s", 0.0),
@@ -480,5 +485,5 @@ class BedImpactCase(Case):
         return data, coords, extra
 
 
-register(Scene("bed_impact", "steel ball dropped on a particle bed, Tavares breakage (seed 002)",
-               PARAMS, BedImpactCase, (_check,)))
+register(Scene("bed_impact", "steel ball dropped on a particle bed, Tavares breakage "
+               "(Tavares et al. 2021)", PARAMS, BedImpactCase, (_check,)))

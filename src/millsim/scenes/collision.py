@@ -2,11 +2,11 @@
 
 The engine-level check against analytic contact mechanics. The restitution the interaction asks
 for is what a head-on collision must return in both end-of-contact conventions (linear_history,
-hertz_mindlin); linear_hw's follows from seed 000's damping rate in closed form. Contact times:
-closed form for the linear laws (ballmill.md section 5, Schwager & Poeschel 2007), 2.9433 xi_max / v
-for elastic Hertz, a scipy solution of the damped Hertz normal ODE otherwise. The scene writes the
-measured and the reference values side by side, and the per-step overlap, normal force and
-relative normal velocity.
+hertz_mindlin); linear_hw's follows from the damping rate of Buchholtz et al. 2000 in closed form.
+Contact times: closed form for the linear laws (ballmill.md section 5, Schwager & Poeschel 2007),
+2.9433 xi_max / v for elastic Hertz, a scipy solution of the damped Hertz normal ODE otherwise. The
+scene writes the measured and the reference values side by side, and the per-step overlap, normal
+force and relative normal velocity.
 """
 
 import math
@@ -39,9 +39,10 @@ PARAMS = (
     Param("integrator", "verlet", "time integrator", choices=("verlet", "gear")),
     CONVENTION_PARAM,
     *SOLID_PARAMS,
-    Param("normal_stiffness", 8e3, "linear spring constant (seed 000: Y = 8e6 g s-2)", "N m-1", 0.0, lo_open=True),
-    Param("normal_damping_rate", 800.0, "seed 000 gamma_N (linear_hw)", "s-1", 0.0),
-    Param("tangential_damping_rate", 1000.0, "seed 000 gamma_T (linear_hw)", "s-1", 0.0),
+    Param("normal_stiffness", 8e3, "linear spring constant (Buchholtz et al. 2000: Y = 8e6 g s-2)",
+          "N m-1", 0.0, lo_open=True),
+    Param("normal_damping_rate", 800.0, "gamma_N of Buchholtz et al. 2000 (linear_hw)", "s-1", 0.0),
+    Param("tangential_damping_rate", 1000.0, "gamma_T of Buchholtz et al. 2000 (linear_hw)", "s-1", 0.0),
     Param("thickness", 0.01, "disk thickness for 2D masses", "m", 0.0, lo_open=True),
     Param("speed", 1.0, "relative impact speed", "m s-1", 0.0, lo_open=True),
     Param("angle", 0.0, "impact obliquity from the normal", "degree", 0.0, 90.0, hi_open=True),
@@ -55,10 +56,10 @@ PARAMS = (
 def analytic(values):
     """Reference (restitution, contact time) of a head-on impact for the law and convention.
 
-    linear_hw takes seed 000's damping rate, so its restitution is a result: closed form for both
-    conventions. linear_history and hertz_mindlin take a restitution, which a head-on collision
-    returns by construction of their damping (``models.materials``); the contact time is the
-    closed form of the linear oscillator, or the Hertz normal ODE solved by scipy.
+    linear_hw takes the damping rate of Buchholtz et al. 2000, so its restitution is a result:
+    closed form for both conventions. linear_history and hertz_mindlin take a restitution, which
+    a head-on collision returns by construction of their damping (``models.materials``); the contact
+    time is the closed form of the linear oscillator, or the Hertz normal ODE solved by scipy.
     """
     law = values["contact_law"]
     clipped = values["convention"] == "clipped"

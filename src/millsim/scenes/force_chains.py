@@ -1,4 +1,4 @@
-"""Force chains after seed 000 section 5 (pure numpy).
+"""Force chains after Buchholtz et al. 2000, section 5 (pure numpy).
 
 Grains i, j, k belong to one chain when (1) i-j and j-k are in contact, (2) the pressure on each of
 the three exceeds a threshold, and (3) the angle i-j-k exceeds 150 degrees (the centres almost lie
@@ -18,7 +18,8 @@ def find_chains(x, pairs_i, pairs_j, load, threshold, angle_deg=CHAIN_ANGLE_DEG)
     Args:
         x: positions (N, 2 or 3).
         pairs_i, pairs_j: contacts (grain indices).
-        load: per-grain chain criterion value (seed 000: sum of contact normal forces) [N].
+        load: per-grain chain criterion value (Buchholtz et al. 2000: sum of contact normal
+            forces) [N].
         threshold: criterion (2) threshold, same units as ``load``.
     """
     n = len(x)

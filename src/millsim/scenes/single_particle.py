@@ -1,4 +1,5 @@
-"""Scene ``single_particle``: single-particle breakage tests of the Tavares model (seed 002 4.1).
+"""Scene ``single_particle``: single-particle breakage tests of the Tavares model
+(Tavares et al. 2021, 4.1).
 
 N particles of one material and size are stressed at one set specific energy, all in one
 simulation: they sit on a square grid, far enough apart never to touch, above one steel plate.
@@ -9,25 +10,26 @@ Modes:
 - ``drop_weight``: each particle rests on the steel anvil (the plate) and a steel striker (a sphere
   ``striker_ratio`` times the particle diameter) hits it from above with 1/2 M v^2 = Ek; the
   absorbed energy of the striker-particle and particle-anvil contacts is summed (eq 14). This is
-  seed 002's "double impact" (DWT).
+  the "double impact" (DWT) of Tavares et al. 2021.
 - ``repeated``: ``impacts`` successive single impacts at the same energy; between impacts the
   unbroken (damaged) particles are put back above the plate with the impact velocity. The
-  cumulative fraction broken after each impact is recorded (seed 002 Fig. 11). With impacts = 2
-  this is also "two successive impacts, the second on the damaged survivors".
+  cumulative fraction broken after each impact is recorded (Fig. 11 of Tavares et al. 2021). With
+  impacts = 2 this is also "two successive impacts, the second on the damaged survivors".
 
 **The set specific energy is the stressing (input) energy** Ek/m: 1/2 v^2 (or 1/2 M v^2/m), the
-x-axis of seed 002 Figs 8-11 and 16 and the basis of Table 4's E_inf. The particle absorbs
-e = k_s/(k_p + k_s) of it (eq 4); the analytic model (millsim.models.breakage.tavares_predictions) is
-eq 1 at e Ek/m with the absorbed median, identical to eq 1 at Ek/m with median E_inf[1+(d0/d)^phi].
-Give it in J/kg (``specific_energy``) or as a multiple of that stressing-basis median
-(``energy_ratio``, used when specific_energy = 0: the same ratios give comparable probabilities
-for every material).
+x-axis of Figs 8-11 and 16 of Tavares et al. 2021 and the basis of Table 4's E_inf. The particle
+absorbs e = k_s/(k_p + k_s) of it (eq 4); the analytic model
+(millsim.models.breakage.tavares_predictions) is eq 1 at e Ek/m with the absorbed median, identical
+to eq 1 at Ek/m with median E_inf[1+(d0/d)^phi]. Give it in J/kg (``specific_energy``) or as
+a multiple of that stressing-basis median (``energy_ratio``, used when specific_energy = 0: the same
+ratios give comparable probabilities for every material).
 
 Gravity is off: flight before and after an impact takes microseconds and gravity would add
 ~g d/v^2 (< 1e-3) to the energy. Time step: the engine's recommended step (0.1 Rayleigh time of
 the smallest particle present, and >= 50 steps per Hertz contact at the impact speed), times
-``dt_factor``; it follows the fragments as they appear. Contacts: seed 002 Table 6 restitution and
-sliding friction; rolling friction is left out (it plays no part in a head-on loading).
+``dt_factor``; it follows the fragments as they appear. Contacts: Tavares et al. 2021, Table 6
+restitution and sliding friction; rolling friction is left out (it plays no part in a head-on
+loading).
 
 Broken particles are either replaced by progeny families (``replacement``, default for single
 and drop_weight: progeny size distribution, secondary breakage, t10) with the dummy class kept as
@@ -84,7 +86,7 @@ PARAMS = (
     Param("impacts", 20, "successive impacts (mode repeated)", "1", 1, 1000),
     Param("gamma", 0.0, "damage coefficient of eq 6; 0 = the material's (Table 4)", "1", 0.0),
     Param("truncation", "single_particle", "Emax/E50 of materials_file: single_particle "
-          "(4, seed 002 verification) or bed (100)", choices=tavares.TRUNCATIONS),
+          "(4, Tavares et al. 2021 verification) or bed (100)", choices=tavares.TRUNCATIONS),
     Param("breakage_at", "first_reach", "when a particle breaks: first_reach (absorbed energy of the "
           "event reaches E) or end_of_loading (when the event ends, t10' from its whole energy)",
           choices=BREAKAGE_AT),
@@ -310,7 +312,7 @@ def _product(s: Setup, books: Books, sieves, unbreakable="eq13"):
     """Cumulative % passing ``sieves`` (x/d0) of each original's product and the worst relative
     mass balance. Fines of each event are spread below x_min by eq 11 with the event's t10';
     resolved-unbreakable spheres that recorded a breaking event by eq 13 (``unbreakable="eq13"``,
-    seed 002 Fig 14) or kept at their size (``"keep"``, Fig 13)."""
+    Fig 14 of Tavares et al. 2021) or kept at their size (``"keep"``, Fig 13)."""
     sim, n, d0 = s.sim, s.values["n_particles"], s.values["diameter"]
     p = sim.particles
     m0 = s.mass
@@ -554,7 +556,7 @@ class SingleParticleCase(Case):
                 "sieve", passing_kept,
                 {"units": "%",
                  "long_name": "the same with resolved-unbreakable spheres kept at their size "
-                              "(seed 002 Fig 13)"}),
+                              "(Fig 13 of Tavares et al. 2021)"}),
             unbreakable_records=(
                 (), int(recorded.sum()),
                 {"units": "1",
@@ -580,5 +582,5 @@ class SingleParticleCase(Case):
         )
 
 register(Scene("single_particle", "single-particle impact, drop-weight and repeated-impact tests of "
-               "the Tavares model against its analytic predictions (seed 002 section 4.1)",
-               PARAMS, SingleParticleCase, (_check,)))
+               "the Tavares model against its analytic predictions "
+               "(Tavares et al. 2021, section 4.1)", PARAMS, SingleParticleCase, (_check,)))

@@ -1,14 +1,15 @@
-"""Scene ``stirred_mill``: wet horizontal stirred media mill with pairwise lubrication (seed 004).
+"""Scene ``stirred_mill``: wet horizontal stirred media mill with pairwise lubrication
+(the LabStar LS1 paper).
 
 A horizontal cylindrical chamber (axis x, gravity -z) with a perforated-disk agitator: disks made
 of rigid spheres on one kinematic ``rotate`` body plus a rotating analytic shaft. The liquid enters
 only as pairwise Jeffrey-Onishi lubrication (``engine/lubrication.py``) between beads, bead-disk
 and bead-wall pairs; with ``eta = 0`` the scene is dry and no lubrication code is compiled.
-Contacts: linear spring-dashpot with history and Coulomb friction (seed 004 eqs 2-4); the
+Contacts: linear spring-dashpot with history and Coulomb friction (eqs 2-4 of the LS1 paper); the
 stiffness comes from E and nu through the LIGGGHTS ``hooke`` formula at a characteristic velocity.
 
 Geometry (LabStar LS1 drawings are not public; every dimension is an approximation chosen so that
-the void volume is the seed's Table 2 value, 0.910 l): the chamber length follows from the void
+the void volume is the LS1 paper's Table 2 value, 0.910 l): the chamber length follows from the void
 volume and the other dimensions (``docs/stirred_mill.md`` gives the arithmetic). ``slice`` runs one
 disk in an axially periodic slice of length chamber_length / disks; ``scale`` shrinks the chamber
 and agitator (not the beads) for quick studies. Outputs: agitator torque and power vs time, steady
@@ -64,7 +65,7 @@ PARAMS = (
           "m", 0.0, lo_open=True),
     Param("bead_diameter_max", 2.0e-3, "largest bead diameter", "m", 0.0, lo_open=True),
     Param("density", 6000.0, "bead density", "kg m-3", 0.0, lo_open=True),
-    Param("youngs_modulus", 5e6, "Young's modulus (reduced 1e3 as in the seed)", "Pa", 0.0,
+    Param("youngs_modulus", 5e6, "Young's modulus (reduced 1e3 as in the LS1 paper)", "Pa", 0.0,
           lo_open=True),
     Param("poisson_ratio", 0.45, "Poisson ratio", "1", 0.0, 0.5, False, True),
     Param("restitution", 0.5, "coefficient of restitution (sets the damping ratio)", "1", 0.0, 1.0,
@@ -618,5 +619,5 @@ class StirredMillCase(Case):
 
 
 register(Scene("stirred_mill", "wet horizontal stirred media mill, perforated-disk agitator, pairwise "
-               "lubrication: power draw, energy balance, typology (seed 004)", PARAMS,
+               "lubrication: power draw, energy balance, typology (the LabStar LS1 paper)", PARAMS,
                StirredMillCase, (_check,)))

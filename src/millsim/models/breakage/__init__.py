@@ -1,1 +1,2 @@
-"""Breakage models: Weibull disk fracture (seed 000) and the Tavares model with particle replacement (seed 002)."""
+"""Breakage models: Weibull disk fracture (Buchholtz et al. 2000) and the Tavares model with
+particle replacement (Tavares et al. 2021)."""

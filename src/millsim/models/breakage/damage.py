@@ -1,4 +1,4 @@
-"""Damage law of the Tavares model (seed 002 eqs 5-6), compiled for the step loop.
+"""Damage law of the Tavares model (Tavares et al. 2021, eqs 5-6), compiled for the step loop.
 
 Kept apart from :mod:`millsim.models.breakage.tavares` so that the loop imports it at module level: numba
 caches a kernel only when what it calls is a global (a function handed in through a closure made

@@ -13,9 +13,9 @@ its damaged fracture energy) and stops the chunk there; :class:`TavaresReplaceme
   (``TavaresModel.mark_creation_overlaps``);
 - gives breakable progeny a fresh fracture energy for their size (eqs 1-3), dummy spheres and
   unbreakable materials an infinite one;
-- resolved-unbreakable particles (below the global minimum size for a family, seed 002 section
-  2.3) get a fracture energy too; the engine reports the first stressing event that reaches it,
-  at the event's end with its whole energy (the particle stays whole, so all of it is its own),
+- resolved-unbreakable particles (below the global minimum size for a family, Tavares et al. 2021,
+  section 2.3) get a fracture energy too; the engine reports the first stressing event that reaches
+  it, at the event's end with its whole energy (the particle stays whole, so all of it is its own),
   and the handler records its t10' (eq 8) in ``particles.t10_recorded`` instead of replacing the
   particle; eq 13 turns that into a size distribution after the run (:func:`product_passing`);
 - ``breakage_at`` chooses when a breakable particle breaks (reference section 6 leaves it open):
@@ -57,7 +57,8 @@ class BreakageEvent:
 
 @dataclass
 class UnbreakableRecord:
-    """First breaking event of a resolved-unbreakable particle (seed 002 section 2.3)."""
+    """First breaking event of a resolved-unbreakable particle (Tavares et al. 2021,
+    section 2.3)."""
 
     time: float
     position: np.ndarray
@@ -75,7 +76,7 @@ class TavaresReplacement:
     Args:
         materials: {name: :class:`~millsim.models.breakage.tavares.TavaresMaterial`} for the breakable
             materials of the simulation (others never break).
-        d_min: global minimum resolved size [m] (seed 002: 1/20 of the top size).
+        d_min: global minimum resolved size [m] (Tavares et al. 2021: 1/20 of the top size).
         seed: seed of the family, arrangement and fracture-energy draws.
         policy, dummy_as: see :func:`~millsim.models.breakage.tavares.break_particle`.
         breakage_at: ``"first_reach"`` or ``"end_of_loading"`` (see the module text).
@@ -204,9 +205,9 @@ def product_passing(sizes, masses, t10_recorded, mat, sieves, unbreakable="eq13"
     """Mass [kg] of resolved spheres passing each sieve [m].
 
     ``unbreakable="eq13"`` replaces each resolved-unbreakable sphere that recorded a breaking
-    event (finite ``t10_recorded``) by the eq 13 distribution of its own size (seed 002 Fig 14);
-    ``"keep"`` counts every sphere at its own size (Fig 13). Dummy spheres and unresolved fines are
-    the caller's (they belong to the event that made them, eq 11).
+    event (finite ``t10_recorded``) by the eq 13 distribution of its own size (Fig 14
+    of Tavares et al. 2021); ``"keep"`` counts every sphere at its own size (Fig 13). Dummy spheres
+    and unresolved fines are the caller's (they belong to the event that made them, eq 11).
     """
     if unbreakable not in UNBREAKABLE_PRODUCT:
         raise ValueError(f"unbreakable: {unbreakable!r} is not one of {UNBREAKABLE_PRODUCT}")

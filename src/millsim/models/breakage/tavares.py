@@ -1,4 +1,4 @@
-"""Tavares (UFRJ) breakage model with sphere replacement (seed 002: Tavares et al. 2021).
+"""Tavares (UFRJ) breakage model with sphere replacement (Tavares et al. 2021).
 
 Pure functions, SI units throughout: sizes in m, masses in kg, specific energies in J/kg on the
 *absorbed* basis (the energy the particle itself stores, after the eq 4 split). Percentages are
@@ -43,18 +43,21 @@ N_VALUES = (1.2, 1.5, 2.0, 4.0, 25.0, 50.0, 75.0)
 """The seven n of eq 10 (t_n = % passing d/n); n = 10 is t10 itself."""
 
 SIEVE_RATIO = 2.0**0.25
-"""Progeny sizes lie on the fourth-root-of-2 series x_k = 2^(-k/4) (seed 002 Table 2)."""
+"""Progeny sizes lie on the fourth-root-of-2 series x_k = 2^(-k/4) (Tavares et al. 2021,
+Table 2)."""
 
 STANDARD_CLASSES = 9
-"""Resolved classes per family: x_min = 2^(-9/4) = 0.210 of the parent (seed 002 section 2.2)."""
+"""Resolved classes per family: x_min = 2^(-9/4) = 0.210 of the parent (Tavares et al. 2021,
+section 2.2)."""
 
 TABLE1_AVERAGE = ((0.448, 10.508), (0.706, 7.913), (0.959, 5.780), (1.105, 2.619),
                   (0.981, 0.524), (0.956, 0.339), (0.934, 0.255))
-"""(alpha_n, beta_n) of eq 10 averaged over 40 materials, seed 002 Table 1, in N_VALUES order."""
+"""(alpha_n, beta_n) of eq 10 averaged over 40 materials, Table 1 of Tavares et al. 2021, in
+N_VALUES order."""
 
 KWH_PER_T = 3600.0  # J/kg in one kWh/t
 T10_STEP = 0.1  # % ; families are tabulated on this t10' grid (paper: nearest tabulated set)
-STEEL_STIFFNESS = 210e9 / (1.0 - 0.3**2)  # Pa, Y/(1 - nu^2) of steel (seed 002 Table 5)
+STEEL_STIFFNESS = 210e9 / (1.0 - 0.3**2)  # Pa, Y/(1 - nu^2) of steel (Tavares et al. 2021, Table 5)
 ENERGY_BASES = ("stress_vs_steel", "absorbed")
 KAPPA_PLACEMENTS = ("numerator", "denominator")
 FAMILY_TN = ("table1_average", "material")
@@ -426,17 +429,18 @@ def check_material(path, name):
 def load_materials(path=MATERIALS_FILE, truncation="bed"):
     """Materials of ``path`` as {name: TavaresMaterial}, converted to SI.
 
-    ``truncation`` picks Emax/E50 from ``model.emax_over_e50``: "single_particle" (4, seed 002
-    single-particle verification) or "bed" (100, seed 002 bed validation; nearly untruncated,
-    as the Table 4 fits were); a material's own ``Emax_over_E50`` overrides both. Errors name
-    the file and the offending key (check_materials_file).
+    ``truncation`` picks Emax/E50 from ``model.emax_over_e50``: "single_particle" (4,
+    Tavares et al. 2021 single-particle verification) or "bed" (100, the paper's bed validation;
+    nearly untruncated, as the Table 4 fits were); a material's own ``Emax_over_E50`` overrides
+    both. Errors name the file and the offending key (check_materials_file).
     """
     _choice("truncation", truncation, TRUNCATIONS)
     return dict(_checked(path)[0][truncation])
 
 
 def load_contacts(path=MATERIALS_FILE):
-    """The ``contacts`` table of the materials file (seed 002 Table 6): pair -> key -> value."""
+    """The ``contacts`` table of the materials file (Tavares et al. 2021, Table 6): pair -> key ->
+    value."""
     return {pair: dict(c) for pair, c in _checked(path)[1].items()}
 
 
@@ -525,7 +529,8 @@ def t10_prime(mat, specific_energy, fracture_energy, kappa=None, placement=None)
     """Eq 8: t10' [%] of one broken particle from its own (damaged) fracture energy E.
 
     placement "numerator": A[1 - exp(-b' kappa Ek'/(m E))]; "denominator":
-    A[1 - exp(-b' Ek'/(m kappa E))]. Both reduce to the same thing at kappa = 1 (seed 002 used 1).
+    A[1 - exp(-b' Ek'/(m kappa E))]. Both reduce to the same thing at kappa = 1 (Tavares et al. 2021
+    used 1).
     """
     mat.require_breakage()
     kappa = mat.kappa if kappa is None else kappa
@@ -650,7 +655,7 @@ class FamilyTable:
     """Progeny families for one t10' (sizes relative to the parent diameter).
 
     edges: (K+1,) 1, 2^-1/4, ..., x_min; class k (1..K) holds fragments with diameter in
-    [edges[k], edges[k-1]) and is nominally edges[k] (seed 002 Table 2 convention).
+    [edges[k], edges[k-1]) and is nominally edges[k] (Tavares et al. 2021, Table 2 convention).
     target: (K+1,) class mass fractions of the eq 10 curve, last = dummy (below x_min).
     counts: (F, K) fragments per class; dummy_counts: (F,) dummy spheres.
     diameters: F arrays of resolved diameters (descending), dummy_diameter: (F,) diameter of the
@@ -706,8 +711,8 @@ def class_targets(t10, params, n_classes=STANDARD_CLASSES):
 def _close_family(n, edges, grow_largest=False):
     """Diameters of a family with counts n, mass closed exactly; None if it cannot be.
 
-    Fragments start at their class's lower edge (seed 002 Table 2). The dummy gets as many
-    spheres of size x_min as fit; the remainder (< x_min^3) goes to the largest fragments, each
+    Fragments start at their class's lower edge (Tavares et al. 2021, Table 2). The dummy gets as
+    many spheres of size x_min as fit; the remainder (< x_min^3) goes to the largest fragments, each
     staying inside its own class, so the class fractions the probabilities are fitted to stay
     true; only if that is not enough do the dummy spheres grow. grow_largest: if the largest
     fragment is in the top class [x_1, 1), first let it take up to its whole class headroom and
@@ -808,9 +813,9 @@ def _fit_probabilities(F, target):
 
     Among the exact mixtures, a linear programme picks the one of least mean squared distance
     between each family's cumulative distribution and the target, so the chosen families
-    scatter closely around the curve (as seed 002 Fig 2) instead of mixing extremes. A basic
-    solution uses at most K + 1 families (the paper: "no more than 11 families"). If the target
-    is outside the candidates' hull, non-negative least squares gives the closest mixture.
+    scatter closely around the curve (as Fig 2 of Tavares et al. 2021) instead of mixing extremes.
+    A basic solution uses at most K + 1 families (the paper: "no more than 11 families"). If the
+    target is outside the candidates' hull, non-negative least squares gives the closest mixture.
     """
     K = F.shape[1] - 1
     cum_f = np.cumsum(F[:, ::-1], axis=1)
@@ -889,9 +894,10 @@ def family_classes_for(mat, d, d_min, policy="standard"):
     """Resolved classes a parent of size d [m] breaks into (0 = it cannot break).
 
     "standard": the full family (down to x_min = 0.21 d) must stay >= d_min, else the particle is
-    resolved-unbreakable (seed 002: d_min is the smallest resolved size in the simulation).
-    "truncate": the family is cut at d_min and the rest joins the dummy class; with fewer than
-    MIN_TRUNCATED_CLASSES classes left (dummy spheres above half the parent) it cannot break.
+    resolved-unbreakable (Tavares et al. 2021: d_min is the smallest resolved size in
+    the simulation). "truncate": the family is cut at d_min and the rest joins the dummy class; with
+    fewer than MIN_TRUNCATED_CLASSES classes left (dummy spheres above half the parent) it cannot
+    break.
     """
     K = mat.family_classes
     if d_min <= 0.0:
@@ -944,9 +950,9 @@ def place_fragments(radii, relax=40):
 
     Largest first, each at the candidate position of least squared overlap with those placed,
     plus a bias: fragments larger than 0.3 of the parent radius avoid the stress axis (the
-    split opens across the load, seed 002 Fig 6) and smaller ones lean towards it (fines form
-    near the loading points). Then a few relaxation sweeps push overlapping pairs apart, the
-    smaller sphere moving more, always projected back inside.
+    split opens across the load, Fig 6 of Tavares et al. 2021) and smaller ones lean towards it
+    (fines form near the loading points). Then a few relaxation sweeps push overlapping pairs apart,
+    the smaller sphere moving more, always projected back inside.
     """
     r = np.asarray(radii, dtype=float)
     n = len(r)
@@ -1010,10 +1016,10 @@ def break_particle(mat, d_parent, specific_energy, fracture_energy, stress_direc
     the particle's current (damaged) E [J/kg] (together eq 8's t10'); stress_direction: unit
     vector of the breaking load; u_family, u_spin: the engine's uniforms in [0, 1) choosing the
     family and the arrangement's turn about the load axis; d_min [m]: global minimum resolved
-    size; policy: see ``family_classes_for``; dummy_as: "spheres" (seed 002: dummy spheres of
-    size x_min that never break) or "fines" (their mass is returned as fines_mass instead).
-    Everything is deterministic in the arguments. Mass: sum of sphere masses + fines_mass equals
-    the parent mass to round-off.
+    size; policy: see ``family_classes_for``; dummy_as: "spheres" (Tavares et al. 2021: dummy
+    spheres of size x_min that never break) or "fines" (their mass is returned as fines_mass
+    instead). Everything is deterministic in the arguments. Mass: sum of sphere masses + fines_mass
+    equals the parent mass to round-off.
     """
     mat.require_breakage()
     if dummy_as not in ("spheres", "fines"):
@@ -1047,7 +1053,7 @@ def break_particle(mat, d_parent, specific_energy, fracture_energy, stress_direc
 
 
 def global_min_size(top_size, ratio=0.05):
-    """d_min [m]: seed 002 set it to 1/20 of the top particle size in the simulation."""
+    """d_min [m]: Tavares et al. 2021 set it to 1/20 of the top particle size in the simulation."""
     return float(top_size) * ratio
 
 

@@ -1,4 +1,4 @@
-"""The Tavares model's part in the step loop (seed 002: Tavares et al. 2021, sections 2.1-2.3).
+"""The Tavares model's part in the step loop (Tavares et al. 2021, sections 2.1-2.3).
 
 Per contact, the loading work (elastic + damping) done while the overlap grows, trapezoidal in the
 overlap, is split between the two bodies by eq 4 (each takes the other's stiffness over the sum).
@@ -174,7 +174,7 @@ KERNELS = NO_BREAKAGE._replace(
 
 
 class BreakageDecision(NamedTuple):
-    """A particle whose stressing event reached its fracture energy (seed 002)."""
+    """A particle whose stressing event reached its fracture energy (Tavares et al. 2021)."""
 
     particle: int
     specific_energy: float  # absorbed Ek'/m of the event [J/kg]
@@ -183,8 +183,8 @@ class BreakageDecision(NamedTuple):
 
 
 class TavaresModel(ParticleModel):
-    """Seed 002 breakage for the engine: loading work per stressing event vs a damaged fracture
-    energy.
+    """Tavares et al. 2021 breakage for the engine: loading work per stressing event vs a damaged
+    fracture energy.
 
     Args:
         materials: {material name: (gamma, e_min)}, the damage coefficient of eqs 5-6 and the
@@ -195,7 +195,7 @@ class TavaresModel(ParticleModel):
     [J/kg] (inf: never breaks; set by the caller), ``e_acc`` the energy absorbed in the current
     event [J], ``break_at_end`` (decide at the end of the event, with its whole energy),
     ``t10_recorded`` the t10' [%] recorded for a resolved-unbreakable particle's first breaking
-    event (NaN: none; seed 002 section 2.3).
+    event (NaN: none; Tavares et al. 2021, section 2.3).
     """
 
     kind, name = "breakage", "tavares"
@@ -216,8 +216,8 @@ class TavaresModel(ParticleModel):
 
     def attach(self, sim):
         if sim.table.contact_law != "hertz_mindlin":
-            raise ValueError("breakage: the Tavares model (seed 002) goes with contact_law "
-                             "'hertz_mindlin'")
+            raise ValueError("breakage: the Tavares model (Tavares et al. 2021) goes with "
+                             "contact_law 'hertz_mindlin'")
         super().attach(sim)
         table = np.zeros((len(sim.table.materials), 3))
         for k, m in enumerate(sim.table.materials):
@@ -252,8 +252,8 @@ class TavaresModel(ParticleModel):
 
     def mark_creation_overlaps(self, indices):
         """Particles just created (progeny) may reach into their neighbours and walls: in every
-        contact they have now, only overlap beyond the present one will count (seed 002 section
-        2.3), the reference shrinking as the pair parts."""
+        contact they have now, only overlap beyond the present one will count (Tavares et al. 2021,
+        section 2.3), the reference shrinking as the pair parts."""
         sim = self.sim
         c, p, base = sim.contacts, sim.particles, sim.layout.spring
         indices = np.atleast_1d(indices)

@@ -1,4 +1,5 @@
-"""Analytic expectations of the Tavares model for single-particle tests (seed 002 section 4.1).
+"""Analytic expectations of the Tavares model for single-particle tests (Tavares et al. 2021,
+section 4.1).
 
 Energy bases (docs/tavares.md section 2). The *set* specific energy of a test, ``Ek/m``, is the
 **stressing (input)** energy: 1/2 v^2 of a particle thrown at a plate, 1/2 M v^2 / m of a
@@ -14,7 +15,7 @@ median ``E_inf[1 + (d0/d)^phi]``.
 - t10 of the broken particles: eq 7 with E50b the median fracture energy of the particles that
   break at that energy (Tavares and Carvalho 2009) (``t10_model``);
 - product size distribution: eq 10 through that t10, eqs 11-12 below d/75
-  (``product_passing_model``); seed 002 Table 2 (``table2_passing``).
+  (``product_passing_model``); Table 2 of Tavares et al. 2021 (``table2_passing``).
 
 They decide what the single-particle scene writes as its analytic columns, so they belong to the
 models (and the provenance hash), not to the analysis.
@@ -28,8 +29,8 @@ from numba import njit
 from . import tavares
 from .damage import damage_fraction
 
-# Seed 002 Table 2 (t10' = 3 %, Table 1 parameters): fragments per relative size (rows) in each
-# of the 7 families (columns), dummy spheres, and the family probabilities.
+# Tavares et al. 2021, Table 2 (t10' = 3 %, Table 1 parameters): fragments per relative size (rows)
+# in each of the 7 families (columns), dummy spheres, and the family probabilities.
 TABLE2_SIZES = np.array([0.841, 0.707, 0.595, 0.500, 0.420, 0.354, 0.297, 0.250, 0.210])
 TABLE2_COUNTS = np.array([[1, 1, 0, 0, 1, 1, 1], [0, 0, 2, 1, 0, 0, 0], [1, 0, 0, 2, 1, 1, 0],
                           [0, 2, 1, 0, 0, 0, 2], [1, 0, 1, 1, 1, 1, 1], [1, 1, 0, 1, 1, 0, 0],
@@ -117,8 +118,8 @@ def product_passing_model(mat, d, specific_energy, share, x_rel, median="broken"
 
 
 def table2_passing():
-    """Mean % passing each relative size of seed 002 Table 2 (fragment of size x_k retained on
-    x_k, dummies pass x_min; each family normalised by its own volume)."""
+    """Mean % passing each relative size of Tavares et al. 2021, Table 2 (fragment of size x_k
+    retained on x_k, dummies pass x_min; each family normalised by its own volume)."""
     vol = TABLE2_COUNTS * TABLE2_SIZES[:, None] ** 3
     dummy = TABLE2_DUMMY * 0.210**3
     frac = np.vstack([vol, dummy]) / (vol.sum(0) + dummy)
@@ -127,7 +128,7 @@ def table2_passing():
 
 
 def table2_comparison(t10=3.0):
-    """(relative sieves, seed Table 2, our families' mean, eq 10 target) in % passing."""
+    """(relative sieves, the paper's Table 2, our families' mean, eq 10 target) in % passing."""
     sieves = tavares.SIEVE_RATIO ** -np.arange(1.0, 10.0)
     tab = tavares.generate_families(t10, tavares.TABLE1_AVERAGE)
     ours = tab.passing(sieves)

@@ -1,8 +1,10 @@
-"""Seed 000 fracture of disks: Weibull probability per contact event, split into two disks.
+"""Fracture of disks (Buchholtz et al. 2000): Weibull probability per contact event, split into two
+disks.
 
 - Probability that a disk of radius R breaks under a contact whose largest normal force over the
-  contact event was F: P = 1 - exp(-c R^-3 F^4) (seed 000 eq 11 with z = 2 in 2D). It is evaluated
-  once per contact event, when the contact ends, so the breakage rate does not depend on dt.
+  contact event was F: P = 1 - exp(-c R^-3 F^4) (Buchholtz et al. 2000, eq 11 with z = 2 in 2D). It
+  is evaluated once per contact event, when the contact ends, so the breakage rate does not depend
+  on dt.
 - The engine's part (:class:`WeibullModel`): the largest normal force of every contact event is
   kept in the contact state; when the event ends the trial is made inside the step loop, and the
   broken particles end the chunk for the scene's handler to split (``Simulation.pop_events``).
@@ -71,8 +73,8 @@ def split_disk(center, parent, force_dir, u):
 
 # ---- the model the engine runs: one fracture trial per contact event -----------------------------
 # Contact-state columns (after the law's): largest normal force of the event, twin flag, twin
-# reference overlap (seed 000 eqs 19-20). Slot record columns: the decision (bit 1: i breaks,
-# bit 2: j breaks) and the peak force, written when an event ends.
+# reference overlap (Buchholtz et al. 2000, eqs 19-20). Slot record columns: the decision (bit 1: i
+# breaks, bit 2: j breaks) and the peak force, written when an event ends.
 FMAX, TWIN, XIP = 0, 1, 2
 DECISION, PEAK = 0, 1
 
@@ -108,9 +110,9 @@ def _pair_apart(bs, state, k, base, o, col, step, i, j, radius, body, rsum, dist
 
 
 def _pair_override(bs, state, k, base, p, xi, n0, n1, n2, v0, v1, v2, m_eff):
-    # Twin fragments (seed 000 eqs 19-20): only overlap beyond the reference (the creation
-    # overlap, shrinking as they part) resists compression; while they part, a small constant
-    # force drives them apart.
+    # Twin fragments (Buchholtz et al. 2000, eqs 19-20): only overlap beyond the reference (the
+    # creation overlap, shrinking as they part) resists compression; while they part, a small
+    # constant force drives them apart.
     if state[k, base + TWIN] <= 0.0:
         return False, 0.0
     vn = v0 * n0 + v1 * n1 + v2 * n2
@@ -166,7 +168,7 @@ KERNELS = NO_BREAKAGE._replace(
 
 
 class FractureTrial(NamedTuple):
-    """A particle that broke when a contact event with ``partner`` ended (seed 000)."""
+    """A particle that broke when a contact event with ``partner`` ended (Buchholtz et al. 2000)."""
 
     particle: int
     partner: int
@@ -175,7 +177,8 @@ class FractureTrial(NamedTuple):
 
 
 class WeibullModel(ParticleModel):
-    """Seed 000 breakage for the engine: fracture trials per contact event, twin relief.
+    """Buchholtz et al. 2000 breakage for the engine: fracture trials per contact event, twin
+    relief.
 
     Args:
         c: Weibull constant [m^3 N^-4] of P = 1 - exp(-c R^-3 F^4).
@@ -196,7 +199,8 @@ class WeibullModel(ParticleModel):
 
     def attach(self, sim):
         if sim.table.contact_law != "linear_hw":
-            raise ValueError("breakage: the Weibull model (seed 000) goes with contact_law 'linear_hw'")
+            raise ValueError("breakage: the Weibull model (Buchholtz et al. 2000) goes with "
+                             "contact_law 'linear_hw'")
         super().attach(sim)
 
     def params(self):
@@ -214,7 +218,8 @@ class WeibullModel(ParticleModel):
 
     def mark_twins(self, i, j):
         """Fragments i and j were created overlapping: only overlap beyond the present one counts,
-        and the pair gets the twin relief force until it first separates (seed 000 eqs 19-20)."""
+        and the pair gets the twin relief force until it first separates (Buchholtz et al. 2000,
+        eqs 19-20)."""
         sim = self.sim
         k = sim.slot(i, j)
         if k is None:
@@ -236,9 +241,9 @@ class WeibullModel(ParticleModel):
 
 
 class WeibullSplit:
-    """Breakage handler of seed 000 (``Simulation.run(on_events=...)``): every grain that broke
-    in the last step becomes two disks (:func:`split_disk`, opened across the breaking force),
-    fragments below the sieve radius leave as dust.
+    """Breakage handler of Buchholtz et al. 2000 (``Simulation.run(on_events=...)``): every grain
+    that broke in the last step becomes two disks (:func:`split_disk`, opened across the breaking
+    force), fragments below the sieve radius leave as dust.
 
     New fragments are twins of each other, of the other fragments created in the same step that
     they overlap (children of twins that broke together) and of the parent's remaining twins: all
