@@ -98,14 +98,21 @@ def snapshot(ref, dest):
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
 
 
-def apply(mutant, tree):
-    path = tree / mutant["file"]
-    text = path.read_text()
+def staleness(mutant, text):
+    """Why ``mutant`` does not apply to ``text`` (its file's source), or None when it does."""
     found = text.count(mutant["find"])
     if found != mutant["count"]:
         return f"stale: 'find' occurs {found} times in {mutant['file']}, expected {mutant['count']}"
-    path.write_text(text.replace(mutant["find"], mutant["replace"]))
     return None
+
+
+def apply(mutant, tree):
+    path = tree / mutant["file"]
+    text = path.read_text()
+    why = staleness(mutant, text)
+    if why is None:
+        path.write_text(text.replace(mutant["find"], mutant["replace"]))
+    return why
 
 
 def run_tests(tree, tests, timeout, cache):
