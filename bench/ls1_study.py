@@ -3,7 +3,7 @@ LabStar LS1 paper's Table 3, and the power, its drift, energy balance, typology 
 of each case (issue 12, items 2-3).
 
     python bench/ls1_study.py CASE.nc [CASE.nc ...] [--rows-from EARLIER.json ...]
-                              [--json bench/out/full_ls1_study.json]
+                              [--drop CARRIED_CASE.nc ...] [--json bench/out/full_ls1_study.json]
                               [--figure docs/figures/ls1_power_series.png]
 
 The cases are those of ``config/ls1_power.yaml`` (``snakemake ... --configfile config/paper.yaml
@@ -168,11 +168,18 @@ def main(argv=None):
     ap.add_argument("--rows-from", nargs="+", default=[], metavar="JSON",
                     help="earlier --json files of this script: their cases join the table and "
                          "figure (case files of earlier sessions, which this machine may not have)")
+    ap.add_argument("--drop", nargs="+", default=[], metavar="CASE",
+                    help="carried rows to leave out, by their case path (a longer run of the same "
+                         "case supersedes a shorter one)")
     ap.add_argument("--json")
     ap.add_argument("--figure")
     args = ap.parse_args(argv)
     earlier = [json.loads(Path(path).read_text()) for path in args.rows_from]
     rows = [row for d in earlier for row in d["cases"]]
+    unknown = set(args.drop) - {row["case"] for row in rows}
+    if unknown:
+        ap.error(f"--drop: no carried row has case {sorted(unknown)[0]}")
+    rows = [row for row in rows if row["case"] not in args.drop]
     rows += [case_row(p) for p in args.cases]
     if not rows:
         ap.error("no cases: give case files or --rows-from")
