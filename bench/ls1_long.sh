@@ -22,3 +22,8 @@ wait
 millsim run stirred_mill "${common[@]}" --set rpm=4000 --set revolutions=5 \
     --set transient_revolutions=2.5 --set ramp_revolutions=1 --set max_overlap=1.0 \
     --out "$out/dry_rpm4000_5rev_ramp1_guard1.nc"
+# ... whose power still falls after 5 revolutions (2026-11-27): 10 revolutions, the second half
+# averaged (the LabStar LS1 paper: steady state after 5-10 rotations)
+millsim run stirred_mill "${common[@]}" --set rpm=4000 --set revolutions=10 \
+    --set transient_revolutions=5 --set ramp_revolutions=1 --set max_overlap=1.0 \
+    --out "$out/dry_rpm4000_10rev_ramp1_guard1.nc"
