@@ -2,7 +2,8 @@
 # Dry full LS1 over several revolutions at several speeds (issue 12, item 3: the dry row of the
 # full-LS1 power table from steady windows, beside bench/ls1_long.sh's 3000 rpm): the power
 # study's parameters, half a revolution of ramp, the second half of the revolutions averaged,
-# one thread per case, all speeds at once, checkpoints (the same command resumes).
+# one thread per case (THREADS=N: N), all speeds at once, checkpoints (the same command resumes,
+# on any thread count).
 # Defaults: 4 revolutions at 2000 and 2500 rpm (2000 rpm was still rising: 8 revolutions).
 #   bash bench/ls1_dry_speeds.sh OUTDIR [REVOLUTIONS [RPM ...]]
 #   python bench/ls1_study.py OUTDIR/*.nc --json bench/out/full_ls1_dry_speeds.json
@@ -16,7 +17,7 @@ common=(--set scale=1.0 --set slice=false --set bead_diameter_min=0.0018
         --set bead_diameter_max=0.0018 --set initial_swirl=0.1 --set seed=1 --set dt_factor=2.0
         --set friction=0.3 --set eta=0 --set revolutions=$revolutions
         --set transient_revolutions=$(python3 -c "print($revolutions / 2)")
-        --set ramp_revolutions=0.5 --threads 1)
+        --set ramp_revolutions=0.5 --threads "${THREADS:-1}")
 for rpm in "${speeds[@]}"; do
     millsim run stirred_mill "${common[@]}" --set rpm=$rpm \
         --out "$out/dry_rpm${rpm}_${revolutions}rev.nc" &
