@@ -95,7 +95,11 @@ def revolution_means(time, power, rpm, parts=1, partial=False):
 
 
 def revolution_table(rows):
-    """Mean power over each revolution: how the start-up settles."""
+    """Mean power over each revolution: how the start-up settles (rows carried from files made
+    before this table existed have none and are left out)."""
+    rows = [r for r in rows if "revolution_means" in r]
+    if not rows:
+        return ""
     n = max(len(r["revolution_means"]) for r in rows)
     head = ("| eta [Pa s] | rpm | ramp [rev] | " + " | ".join(f"rev {k + 1} [W]" for k in range(n))
             + " |")
