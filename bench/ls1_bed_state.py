@@ -1,0 +1,119 @@
+"""What the bead bed of a running stirred-mill case looks like, from copies of its checkpoint
+(issue 12: why the dry full-LS1 power at 3000 rpm rises again after 7 revolutions).
+
+A case run with ``--checkpoint-every S`` rewrites ``OUT.ckpt`` every S seconds of wall time; copies
+of it taken as the run goes are the bed's states at those times (the case file itself holds only
+the power, the kinetic energy and the window's summaries). For each copy this prints, per radial
+band between the shaft and the chamber wall:
+
+- the beads' solid fraction (bead volume / band volume over the whole chamber length),
+- their mean azimuthal velocity as a fraction of the agitator's rigid rotation, u_theta / (omega r),
+- their velocity fluctuation about that mean (rms, m/s: the shearing that dissipates),
+
+and for the bed as a whole its angular momentum about the axis over that of rigid rotation at the
+agitator's speed, its centre of mass across the axis (gravity is -z) and the share of it below the
+axis, and the beads per unit length of each compartment between the disks (or a disk
+and a wall) over the chamber's mean.
+
+    python bench/ls1_bed_state.py CKPT [CKPT ...] [--bands 6] [--json FILE]
+"""
+import argparse
+import json
+import pickle
+import sys
+from pathlib import Path
+
+import numpy as np
+
+
+def load(path):
+    """The header and the driver's saved state of a checkpoint (read without the header check of
+    millsim.io.read_checkpoint: these are copies, read by the same code that wrote them)."""
+    with open(path, "rb") as fh:
+        header = pickle.load(fh)
+        state = pickle.load(fh)
+    return header, state
+
+
+def bed_state(case, bands):
+    sim, g = case.sim, case.g
+    p = sim.particles
+    bead = np.asarray(p.body) < 0
+    x, v, r = np.asarray(p.x)[bead], np.asarray(p.v)[bead], np.asarray(p.radius)[bead]
+    vol = 4.0 / 3.0 * np.pi * r**3
+    y, z = x[:, 1], x[:, 2]
+    rho = np.hypot(y, z)
+    # azimuthal unit vector about the x axis: e_theta = (0, -z, y) / rho
+    u_theta = (-z * v[:, 1] + y * v[:, 2]) / rho
+    u_axial = v[:, 0]
+    u_radial = (y * v[:, 1] + z * v[:, 2]) / rho
+    omega = g["omega"] * min(1.0, sim.time / g["ramp"]) if g["ramp"] else g["omega"]
+    R, r_shaft, length = g["chamber_radius"], g["shaft_radius"], g["length"]
+    edges = np.linspace(r_shaft, R, bands + 1)
+    which = np.clip(np.digitize(rho, edges) - 1, 0, bands - 1)
+    rows = []
+    for b in range(bands):
+        m = which == b
+        shell = np.pi * (edges[b + 1] ** 2 - edges[b] ** 2) * length
+        if not m.any():
+            rows.append(dict(r_lo=edges[b], r_hi=edges[b + 1], solid_fraction=0.0, n=0))
+            continue
+        w = vol[m]
+        rel = np.average(u_theta[m] / (omega * rho[m]), weights=w)
+        # about the band's mean rotation, radial drift 0 and its mean axial drift
+        swirl = u_theta[m] - rel * omega * rho[m]
+        axial = u_axial[m] - np.average(u_axial[m], weights=w)
+        fluct = np.sqrt(np.average(swirl**2 + u_radial[m] ** 2 + axial**2, weights=w))
+        rows.append(dict(r_lo=edges[b], r_hi=edges[b + 1], n=int(m.sum()),
+                         solid_fraction=float(w.sum() / shell), rotation=float(rel),
+                         fluctuation=float(fluct)))
+    # angular momentum about the axis over rigid rotation at omega (equal bead density)
+    rotation = float(np.sum(vol * rho * u_theta) / (omega * np.sum(vol * rho**2)))
+    disk_x = np.asarray(g["disk_x"])
+    cuts = np.concatenate([[g["x_lo"]], disk_x, [g["x_lo"] + length]])
+    # beads per unit length of each compartment over the mean (the end ones are half a pitch long)
+    density = np.histogram(x[:, 0], bins=cuts)[0] / np.diff(cuts)
+    # gravity is -z: a bed that does not co-rotate enough to be held at the wall pools below
+    centre = np.average(x[:, 1:], axis=0, weights=vol) / R
+    return dict(time=float(sim.time), revolutions=float(sim.time * g["omega"] / (2 * np.pi)),
+                omega=float(omega), rotation=rotation,
+                mean_radius=float(np.average(rho, weights=vol)),
+                centre_y=float(centre[0]), centre_z=float(centre[1]),
+                below_axis=float(vol[z < 0].sum() / vol.sum()),
+                bands=rows, compartments=(density / (len(x) / length)).round(3).tolist())
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("checkpoints", nargs="+")
+    ap.add_argument("--bands", type=int, default=6)
+    ap.add_argument("--json", help="write the states to this JSON file")
+    a = ap.parse_args(argv)
+    states = []
+    for path in a.checkpoints:
+        header, state = load(path)
+        s = bed_state(state["case"], a.bands)
+        s["file"] = str(path)
+        states.append(s)
+    states.sort(key=lambda s: s["time"])
+    for s in states:
+        print(f"t = {s['time'] * 1e3:7.2f} ms ({s['revolutions']:5.2f} rev): bed rotation "
+              f"{s['rotation']:.3f} of rigid, mean radius {s['mean_radius'] * 1e3:.2f} mm, "
+              f"centre (y, z) ({s['centre_y']:+.3f}, {s['centre_z']:+.3f}) R, "
+              f"{s['below_axis']:.3f} of the beads below the axis; "
+              f"compartments / mean {s['compartments']}")
+        print("   r [mm]        solid fr.  u_theta/(omega r)  fluctuation [m/s]")
+        for b in s["bands"]:
+            if b["n"]:
+                print(f"   {b['r_lo'] * 1e3:5.1f}-{b['r_hi'] * 1e3:5.1f}   "
+                      f"{b['solid_fraction']:8.3f}  {b['rotation']:17.3f}  "
+                      f"{b['fluctuation']:17.3f}")
+            else:
+                print(f"   {b['r_lo'] * 1e3:5.1f}-{b['r_hi'] * 1e3:5.1f}      empty")
+    if a.json:
+        Path(a.json).write_text(json.dumps(states, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
