@@ -1,11 +1,13 @@
 """The agitator power recorded so far by a stirred-mill case that has not finished, read from its
 checkpoint (a long full-LS1 run stopped for lack of time keeps what its last checkpoint holds).
 
-    python bench/ls1_checkpoint_series.py CASE.nc.ckpt [--json FILE]
+    python bench/ls1_checkpoint_series.py CASE.nc.ckpt [--window-from REV] [--json FILE]
 
 Prints the step and revolution the checkpoint was taken at and the mean agitator power of each
 half revolution recorded (bench/ls1_study.py's revolution means, halved; the last half may be
-incomplete). Only the code that wrote the checkpoint reads it (millsim.io refuses other code): run
+incomplete); with ``--window-from REV`` also the mean over the records from that revolution on
+with its 95 % interval (8 block means, as the case file's) and the window's drift
+(bench/ls1_study.py's). Only the code that wrote the checkpoint reads it (millsim.io refuses other code): run
 it from that tree, e.g. ``PYTHONPATH=<that tree>/src python bench/ls1_checkpoint_series.py ...``.
 """
 
@@ -18,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from ls1_study import revolution_means  # noqa: E402
+from ls1_study import drift, revolution_means  # noqa: E402
 
 
 def checkpoint_state(path):
@@ -39,6 +41,8 @@ def checkpoint_state(path):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("checkpoint")
+    ap.add_argument("--window-from", type=float, metavar="REV",
+                    help="also the mean power and its drift from this revolution on")
     ap.add_argument("--json")
     args = ap.parse_args()
     case, steps, params = checkpoint_state(args.checkpoint)
@@ -51,6 +55,15 @@ def main():
                revolutions=float(case.sim.time * rpm / 60.0), records=int(len(power)),
                eta=float(params["eta"]), rpm=rpm, half_revolution_mean_power_w=means,
                last_half_complete=bool(revolutions[-1] * 2.0 >= len(means)))
+    if args.window_from is not None:
+        from millsim.util.stats import block_mean_ci
+
+        start = args.window_from * 60.0 / rpm
+        mean, half_width = block_mean_ci(power[time >= start], 8)
+        change, change_ci = drift(time, power, start)
+        out["window"] = dict(from_revolution=args.window_from, mean_power_w=float(mean),
+                             mean_power_ci_w=float(half_width), drift_w=float(change),
+                             drift_ci_w=float(change_ci))
     print(json.dumps(out, indent=1))
     if args.json:
         with open(args.json, "w") as fh:

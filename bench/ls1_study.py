@@ -56,6 +56,7 @@ def case_row(path):
         scheme=p["lubrication_scheme"] if wet else "-",
         threads=int(ds.attrs["threads"]), dt=float(ds.attrs["dt"]), steps=int(ds.attrs["steps"]),
         sim_ms=sim_ms, revolutions=p["revolutions"], ramp_revolutions=p["ramp_revolutions"],
+        initial_swirl=p["initial_swirl"],
         compute_s=float(ds.attrs["compute_seconds"]),
         s_per_sim_ms=s_per_ms, projected_h_per_52_5_ms=s_per_ms * PAPER_SIM_MS / 3600,
         # Table 3 gives the full chamber at eta = 0 and 1 Pa s only
@@ -82,6 +83,12 @@ def case_row(path):
     )
 
 
+def swirl(row):
+    """The row's initial bead swirl (fraction of rigid rotation); rows carried from files made
+    before it was stored all ran at 0.1 (every bench script and config did)."""
+    return row.get("initial_swirl", 0.1)
+
+
 def revolution_means(time, power, rpm, parts=1, partial=False):
     """Mean agitator power [W] over each 1/parts of a revolution from the start (a record at t
     stands for the interval that ends at t). A last part short of more than 2 % is left out,
@@ -101,27 +108,30 @@ def revolution_table(rows):
     if not rows:
         return ""
     n = max(len(r["revolution_means"]) for r in rows)
-    head = ("| eta [Pa s] | rpm | ramp [rev] | " + " | ".join(f"rev {k + 1} [W]" for k in range(n))
-            + " |")
+    head = ("| eta [Pa s] | rpm | ramp [rev] | initial swirl | "
+            + " | ".join(f"rev {k + 1} [W]" for k in range(n)) + " |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
-    for r in sorted(rows, key=lambda r: (r["eta"], r["rpm"])):
+    for r in sorted(rows, key=lambda r: (r["eta"], r["rpm"], -swirl(r))):
         cells = [f"{m:.3g}" for m in r["revolution_means"]] + ["-"] * (n - len(r["revolution_means"]))
-        lines.append(f"| {r['eta']:g} | {r['rpm']:g} | {r['ramp_revolutions']:g} | "
+        lines.append(f"| {r['eta']:g} | {r['rpm']:g} | {r['ramp_revolutions']:g} | {swirl(r):g} | "
                      + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
 def table(rows):
-    head = ("| domain | seed | eta [Pa s] | rpm | dt [s] | simulated [ms] | s per simulated ms [threads] | "
-            "projected 52.5 ms [h] | the LS1 paper's Table 3 [h] | CG it./step | net power [W] | "
+    head = ("| domain | seed | eta [Pa s] | rpm | initial swirl | dt [s] | simulated [ms] | "
+            "s per simulated ms [threads] | projected 52.5 ms [h] | the LS1 paper's Table 3 [h] | "
+            "CG it./step | net power [W] | "
             "drift over the window [W] | energy balance [%] | impact / shearing / rolling [%] |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
-    for r in sorted(rows, key=lambda r: (r["domain"], r["eta"], r["rpm"], r["dt"], r["seed"])):
+    for r in sorted(rows, key=lambda r: (r["domain"], r["eta"], r["rpm"], -swirl(r), r["dt"],
+                                         r["seed"])):
         t = r["typology"]
         paper = (f"{r['paper_table3_h']:g} ({r['paper_table3_processors']} proc.)"
                  if r["paper_table3_h"] else "-")
         lines.append(
-            f"| {r['domain']} | {r['seed']} | {r['eta']:g} | {r['rpm']:g} | {r['dt']:.3g} | {r['sim_ms']:.1f} | "
+            f"| {r['domain']} | {r['seed']} | {r['eta']:g} | {r['rpm']:g} | {swirl(r):g} | "
+            f"{r['dt']:.3g} | {r['sim_ms']:.1f} | "
             f"{r['s_per_sim_ms']:.3g} [{r['threads']}] | {r['projected_h_per_52_5_ms']:.2f} | {paper} | "
             f"{r['cg_iterations_per_step']:.2f} | {r['net_power']:.3g} +- {r['net_power_ci']:.2g} | "
             f"{r['window_drift']:+.2g} +- {r['window_drift_ci']:.2g} | "
@@ -137,17 +147,21 @@ def figure(rows, out):
     from millsim.plots.style import RC
 
     speeds = sorted({r["rpm"] for r in rows})
-    etas = sorted({r["eta"] for r in rows})  # one colour per viscosity in every panel
+    # one colour per viscosity and initial swirl in every panel
+    kinds = sorted({(r["eta"], -swirl(r)) for r in rows})
+    swirls = {swirl(r) for r in rows}
     with matplotlib.rc_context(RC):
         fig = Figure(figsize=(3.4 * len(speeds), 3.8), layout="constrained")
         axes = np.atleast_1d(fig.subplots(1, len(speeds), sharey=False))
         handles = {}
         for ax, rpm in zip(axes, speeds):
             for r in sorted((r for r in rows if r["rpm"] == rpm), key=lambda r: r["eta"]):
-                colour = f"C{etas.index(r['eta'])}"
+                kind = (r["eta"], -swirl(r))
+                colour = f"C{kinds.index(kind)}"
                 t = np.asarray(r["series"]["time"]) * 1e3
-                handles[r["eta"]], = ax.plot(t, r["series"]["power"], lw=0.9, color=colour,
-                                             label=f"{r['eta']:g} Pa s")
+                label = f"{r['eta']:g} Pa s" + (f", swirl {swirl(r):g}" if len(swirls) > 1 else "")
+                handles[kind], = ax.plot(t, r["series"]["power"], lw=0.9, color=colour,
+                                         label=label)
                 t0 = r["statistics_start"] * 1e3
                 ax.hlines(r["net_power"], t0, t[-1], color=colour, lw=2)
                 ax.fill_between([t0, t[-1]], r["net_power"] - r["net_power_ci"],
@@ -160,7 +174,8 @@ def figure(rows, out):
                 ax.set_ylim(0.3 * min(means), 3 * max(means))
             else:
                 ax.set_ylim(0, None)
-        axes[0].legend(handles=[handles[e] for e in etas], title="simulation viscosity")
+        axes[0].legend(handles=[handles[k] for k in kinds],
+                       title="simulation viscosity" + (", initial swirl" if len(swirls) > 1 else ""))
         fig.suptitle("Full LS1: agitator power against time\nthick: mean over the averaging "
                      "window (from the dashed line), band: its 95 % interval", fontsize=9)
         fig.savefig(out)
