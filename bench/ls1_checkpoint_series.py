@@ -7,8 +7,9 @@ Prints the step and revolution the checkpoint was taken at and the mean agitator
 half revolution recorded (bench/ls1_study.py's revolution means, halved; the last half may be
 incomplete); with ``--window-from REV`` also the mean over the records from that revolution on
 with its 95 % interval (8 block means, as the case file's) and the window's drift
-(bench/ls1_study.py's). Only the code that wrote the checkpoint reads it (millsim.io refuses other code): run
-it from that tree, e.g. ``PYTHONPATH=<that tree>/src python bench/ls1_checkpoint_series.py ...``.
+(bench/ls1_study.py's). Only the code that wrote the checkpoint reads it (millsim.io refuses
+other code): run it from that tree, e.g. ``PYTHONPATH=<that tree>/src python
+bench/ls1_checkpoint_series.py ...``.
 """
 
 import argparse
