@@ -19,20 +19,13 @@ and a wall) over the chamber's mean.
 """
 import argparse
 import json
-import pickle
 import sys
 from pathlib import Path
 
 import numpy as np
 
-
-def load(path):
-    """The header and the driver's saved state of a checkpoint (read without the header check of
-    millsim.io.read_checkpoint: these are copies, read by the same code that wrote them)."""
-    with open(path, "rb") as fh:
-        header = pickle.load(fh)
-        state = pickle.load(fh)
-    return header, state
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ls1_checkpoint_series import checkpoint_state  # noqa: E402
 
 
 def bed_state(case, bands):
@@ -91,8 +84,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     states = []
     for path in a.checkpoints:
-        header, state = load(path)
-        s = bed_state(state["case"], a.bands)
+        case, _, _ = checkpoint_state(path)
+        s = bed_state(case, a.bands)
         s["file"] = str(path)
         states.append(s)
     states.sort(key=lambda s: s["time"])
