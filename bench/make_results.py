@@ -267,8 +267,10 @@ def full_ls1_steady():
     carried = (", carrying the rows of " + "; ".join(f"`{c}`" for c in earlier)) if earlier else ""
     return ["## Full LS1 over several revolutions: steady power", "",
             f"{_command(d)}{carried}: the cases of bench/ls1_long.sh, bench/ls1_dry_speeds.sh and "
-            "bench/ls1_wet_long.sh (the power study's parameters run for 3-8 revolutions, the "
+            "bench/ls1_wet_long.sh (the power study's parameters run for 3-12 revolutions, the "
             "first half or more discarded; rows of earlier sessions carried in by --rows-from). "
+            "Window: the revolutions averaged; * where --window-from started it later than the "
+            "run did, after its bed settled (energy balance and typology stay the run's window's). "
             "Cost: the compiled loop's seconds per simulated ms, on the threads and load each case "
             "ran with (docs/results/stirred_mill.md says which). Analysis: "
             "docs/results/stirred_mill.md, \"Steady state on the full chamber\".", "",
