@@ -6,7 +6,8 @@
 # on any thread count). SWIRL=S starts the beads at S of rigid rotation (default 0.1, the power
 # study's; files of other values end _swirlS): dry, 0.1 holds the bed at the wall above about
 # 2000 rpm, and it then takes many revolutions to sink (docs/results/stirred_mill.md, "The dry
-# bed sinks"); SWIRL=0 starts it where it ends up. RAMP=R revolutions of ramp (default 0.5; _rampR),
+# bed sinks"); SWIRL=0 starts it where it ends up (at 4000 rpm over 12 revolutions, average from
+# the 8th: ls1_study.py --window-from). RAMP=R revolutions of ramp (default 0.5; _rampR),
 # GUARD=G max_overlap in radii (default the scene's; _guardG), CHECKPOINT_EVERY=SECONDS as
 # millsim run's. 4000 rpm wants RAMP=1 GUARD=1.0 (docs/stirred_mill.md, Start-up).
 # Defaults: 4 revolutions at 2000 and 2500 rpm (2000 rpm was still rising: 8 revolutions).
