@@ -14,9 +14,9 @@ the paper's Table 3 ran eta = 0 on 1 processor and eta = 1 Pa s on 8. The figure
 case's agitator power against time, with the averaging window and the mean with its 95 % interval,
 so that a reader sees how far each case is from a steady state. ``--window-from CASE.nc=REV``
 averages that case's power (mean, interval, drift) from REV revolutions instead of from the run's
-own window start, for a case whose bed settled later than its run assumed (docs/results/
-stirred_mill.md, "The dry bed sinks"); its energy balance and typology stay the run's window's,
-and the row keeps the run's own values under ``run_window``.
+own window start, for a case whose bed settled later than its run assumed
+(docs/results/stirred_mill.md, "The dry bed sinks"); its energy balance and typology stay the
+run's window's, and the row keeps the run's own values under ``run_window``.
 """
 
 import argparse
