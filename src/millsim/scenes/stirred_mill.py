@@ -250,7 +250,9 @@ def build(values):
     disk_x, disk_r = _disk_particles(values, g)
     bead_x, bead_r = _place_beads(values, g, disk_x, disk_r, rng)
     omega = g["omega"]
-    # initial swirl about the axis (shortens the start-up transient)
+    # initial swirl about the axis: wet beds co-rotate at about 0.1 of rigid, so 0.1 shortens
+    # their start-up; dry full-chamber beds at 0.02-0.03, and above 2000 rpm 0.1 holds them at
+    # the wall for revolutions (docs/results/stirred_mill.md, "The dry bed sinks")
     v = values["initial_swirl"] * omega * np.cross(AXIS, bead_x * [0, 1, 1])
     nb, nd = len(bead_r), len(disk_x)
     x = np.vstack([bead_x, disk_x])
