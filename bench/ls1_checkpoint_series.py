@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from ls1_study import drift, revolution_means  # noqa: E402
+from ls1_study import revolution_means, window_stats  # noqa: E402
 
 
 def checkpoint_state(path):
@@ -57,14 +57,10 @@ def main():
                eta=float(params["eta"]), rpm=rpm, half_revolution_mean_power_w=means,
                last_half_complete=bool(revolutions[-1] * 2.0 >= len(means)))
     if args.window_from is not None:
-        from millsim.util.stats import block_mean_ci
-
-        start = args.window_from * 60.0 / rpm
-        mean, half_width = block_mean_ci(power[time >= start], 8)
-        change, change_ci = drift(time, power, start)
-        out["window"] = dict(from_revolution=args.window_from, mean_power_w=float(mean),
-                             mean_power_ci_w=float(half_width), drift_w=float(change),
-                             drift_ci_w=float(change_ci))
+        mean, half_width, change, change_ci = window_stats(time, power,
+                                                           args.window_from * 60.0 / rpm)
+        out["window"] = dict(from_revolution=args.window_from, mean_power_w=mean,
+                             mean_power_ci_w=half_width, drift_w=change, drift_ci_w=change_ci)
     print(json.dumps(out, indent=1))
     if args.json:
         with open(args.json, "w") as fh:

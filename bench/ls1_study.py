@@ -44,10 +44,18 @@ def drift(time, power, start, blocks=8):
     return fit.slope * length, stats.t.ppf(0.975, blocks - 2) * fit.stderr * length
 
 
+def window_stats(time, power, start, blocks=8):
+    """Mean power over the records after ``start`` [s] (the scene's own window rule) with its 95 %
+    block interval, and the window's drift with its half-width: (mean, ci, drift, drift_ci)."""
+    from millsim.util.stats import block_mean_ci
+
+    mean, ci = block_mean_ci(power[time > start + 1e-12], blocks)
+    return (float(mean), float(ci), *(float(x) for x in drift(time, power, start, blocks)))
+
+
 def case_row(path, window_from=None):
     """One case file's row; ``window_from`` [revolutions] moves the start of its power window."""
     from millsim.io import read_case
-    from millsim.util.stats import block_mean_ci
 
     ds = read_case(path, "stirred_mill")
     p = json.loads(ds.attrs["parameters_json"])
@@ -66,9 +74,7 @@ def case_row(path, window_from=None):
         if not time[0] <= start < time[-1]:
             raise SystemExit(f"--window-from: {path}: {window_from:g} revolutions is outside its "
                              f"run ({time[-1] * p['rpm'] / 60:.3g} revolutions)")
-        # the scene's own window: records after its start (the same 1e-12 s slack)
-        mean, ci = (float(x) for x in block_mean_ci(power[time > start + 1e-12], blocks))
-        change, change_ci = drift(time, power, start, blocks)
+        mean, ci, change, change_ci = window_stats(time, power, start, blocks)
     wet = p["eta"] > 0
     return dict(
         case=str(path), domain=f"slice {p['scale']:g}" if p["slice"] else "full", eta=p["eta"],
