@@ -15,7 +15,15 @@ agitator's speed, its centre of mass across the axis (gravity is -z) and the sha
 axis, and the beads per unit length of each compartment between the disks (or a disk
 and a wall) over the chamber's mean.
 
-    python bench/ls1_bed_state.py CKPT [CKPT ...] [--bands 6] [--json FILE]
+With ``--fit-from REV`` it also fits rotation = level + amplitude exp(-(rev - REV) / tau) to the
+states from revolution REV on (least squares; the level's standard error is the fit's, which
+treats the states as independent) and prints it beside the rotation a bed needs to be held at the
+wall, sqrt(g / R_c) / omega, and the fall per revolution over the last revolution of states: is
+a falling wet bed levelling, and where?
+
+    python bench/ls1_bed_state.py CKPT [CKPT ...] [--bands 6] [--json FILE] [--fit-from REV]
+
+(a ``.json`` in place of checkpoints: the states an earlier ``--json`` wrote.)
 """
 import argparse
 import json
@@ -76,14 +84,50 @@ def bed_state(case, bands):
                 bands=rows, compartments=(density / (len(x) / length)).round(3).tolist())
 
 
+def rotation_trend(states, start, omega, chamber_radius, g=9.81):
+    """The exponential fit and last revolution's slope described in the module's docstring."""
+    from scipy.optimize import curve_fit
+
+    rev = np.array([s["revolutions"] for s in states if s["revolutions"] >= start])
+    rot = np.array([s["rotation"] for s in states if s["revolutions"] >= start])
+    if len(rev) < 4:
+        raise SystemExit(f"--fit-from {start}: {len(rev)} states from there, the fit needs 4")
+
+    def model(r, level, amplitude, tau):
+        return level + amplitude * np.exp(-(r - start) / tau)
+
+    span = rev[-1] - rev[0]
+    # a decay slower than 5 spans is a straight fall over the span: no level can be read off
+    tau_max = 5.0 * span
+    guess = (rot[-1], rot[0] - rot[-1], 0.5 * span)
+    (level, amplitude, tau), cov = curve_fit(model, rev, rot, p0=guess, maxfev=20000,
+                                             bounds=([-np.inf, -np.inf, 0.01 * span],
+                                                     [np.inf, np.inf, tau_max]))
+    level_se = float(np.sqrt(cov[0, 0]))
+    if tau > 0.99 * tau_max:
+        level = level_se = float("nan")
+    last = rev >= rev[-1] - 1.0
+    slope = float(np.polyfit(rev[last], rot[last], 1)[0]) if last.sum() >= 2 else float("nan")
+    return dict(fit_from=start, states=int(len(rev)), straight=bool(np.isnan(level)),
+                level=float(level), level_se=level_se,
+                amplitude=float(amplitude), tau_rev=float(tau),
+                held_at_wall=float(np.sqrt(g / chamber_radius) / omega),
+                slope_last_revolution=slope)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("checkpoints", nargs="+")
     ap.add_argument("--bands", type=int, default=6)
     ap.add_argument("--json", help="write the states to this JSON file")
+    ap.add_argument("--fit-from", type=float, metavar="REV",
+                    help="fit the rotation's decay from this revolution on (see above)")
     a = ap.parse_args(argv)
     states = []
     for path in a.checkpoints:
+        if path.endswith(".json"):  # states saved by an earlier --json (any engine's)
+            states += json.loads(Path(path).read_text())
+            continue
         case, _, _ = checkpoint_state(path)
         s = bed_state(case, a.bands)
         s["file"] = str(path)
@@ -103,6 +147,18 @@ def main(argv=None):
                       f"{b['fluctuation']:17.3f}")
             else:
                 print(f"   {b['r_lo'] * 1e3:5.1f}-{b['r_hi'] * 1e3:5.1f}      empty")
+    if a.fit_from is not None:
+        # the agitator's full speed (revolutions count at it) and the chamber wall (last band's edge)
+        omega = 2.0 * np.pi * states[-1]["revolutions"] / states[-1]["time"]
+        f = rotation_trend(states, a.fit_from, omega, states[-1]["bands"][-1]["r_hi"])
+        fit = (f"no level: the fall is straight over the span (tau at its bound, "
+               f"{f['tau_rev']:.1f} rev)" if f["straight"] else
+               f"level {f['level']:.4f} +- {f['level_se']:.4f} (fit's standard error), amplitude "
+               f"{f['amplitude']:+.4f}, tau {f['tau_rev']:.2f} rev")
+        print(f"rotation from revolution {a.fit_from:g} ({f['states']} states): {fit}; "
+              f"held at the wall from "
+              f"{f['held_at_wall']:.4f}; slope over the last revolution "
+              f"{f['slope_last_revolution']:+.4f} per revolution")
     if a.json:
         Path(a.json).write_text(json.dumps(states, indent=1))
     return 0
