@@ -22,6 +22,7 @@ wall, sqrt(g / R_c) / omega, and the fall per revolution over the last revolutio
 a falling wet bed levelling, and where?
 
     python bench/ls1_bed_state.py CKPT [CKPT ...] [--bands 6] [--json FILE] [--fit-from REV]
+        [--until REV]
 
 (a ``.json`` in place of checkpoints: the states an earlier ``--json`` wrote.)
 """
@@ -122,6 +123,8 @@ def main(argv=None):
     ap.add_argument("--json", help="write the states to this JSON file")
     ap.add_argument("--fit-from", type=float, metavar="REV",
                     help="fit the rotation's decay from this revolution on (see above)")
+    ap.add_argument("--until", type=float, metavar="REV",
+                    help="only the states before this revolution (what a shorter run would show)")
     a = ap.parse_args(argv)
     states = []
     for path in a.checkpoints:
@@ -133,6 +136,8 @@ def main(argv=None):
         s["file"] = str(path)
         states.append(s)
     states.sort(key=lambda s: s["time"])
+    if a.until is not None:
+        states = [s for s in states if s["revolutions"] < a.until]
     for s in states:
         print(f"t = {s['time'] * 1e3:7.2f} ms ({s['revolutions']:5.2f} rev): bed rotation "
               f"{s['rotation']:.3f} of rigid, mean radius {s['mean_radius'] * 1e3:.2f} mm, "
