@@ -16,8 +16,9 @@ axis, and the beads per unit length of each compartment between the disks (or a 
 and a wall) over the chamber's mean.
 
 With ``--fit-from REV`` it also fits rotation = level + amplitude exp(-(rev - REV) / tau) to the
-states from revolution REV on (least squares; the level's standard error is the fit's, which
-treats the states as independent) and prints it beside the rotation a bed needs to be held at the
+states from revolution REV on (least squares, tau at most five times the states' span: a slower
+decay is reported as a straight fall with no level; the level's standard error is the fit's,
+which treats the states as independent) and prints it beside the rotation a bed needs to be held at the
 wall, sqrt(g / R_c) / omega, and the fall per revolution over the last revolution of states: is
 a falling wet bed levelling, and where?
 
@@ -138,6 +139,8 @@ def main(argv=None):
     states.sort(key=lambda s: s["time"])
     if a.until is not None:
         states = [s for s in states if s["revolutions"] < a.until]
+    if not states:
+        raise SystemExit(f"no state before revolution {a.until:g}")
     for s in states:
         print(f"t = {s['time'] * 1e3:7.2f} ms ({s['revolutions']:5.2f} rev): bed rotation "
               f"{s['rotation']:.3f} of rigid, mean radius {s['mean_radius'] * 1e3:.2f} mm, "
