@@ -18,9 +18,9 @@ and a wall) over the chamber's mean.
 With ``--fit-from REV`` it also fits rotation = level + amplitude exp(-(rev - REV) / tau) to the
 states from revolution REV on (least squares, tau at most five times the states' span: a slower
 decay is reported as a straight fall with no level; the level's standard error is the fit's,
-which treats the states as independent) and prints it beside the rotation a bed needs to be held at the
-wall, sqrt(g / R_c) / omega, and the fall per revolution over the last revolution of states: is
-a falling wet bed levelling, and where?
+which treats the states as independent) and prints it beside the rotation a bed needs to be held
+at the wall, sqrt(g / R_c) / omega (the scene's g), and the fall per revolution
+over the last revolution of states: is a falling wet bed levelling, and where?
 
     python bench/ls1_bed_state.py CKPT [CKPT ...] [--bands 6] [--json FILE] [--fit-from REV]
         [--until REV]
@@ -86,9 +86,11 @@ def bed_state(case, bands):
                 bands=rows, compartments=(density / (len(x) / length)).round(3).tolist())
 
 
-def rotation_trend(states, start, omega, chamber_radius, g=9.81):
+def rotation_trend(states, start, omega, chamber_radius):
     """The exponential fit and last revolution's slope described in the module's docstring."""
     from scipy.optimize import curve_fit
+
+    from millsim.scenes.stirred_mill import G
 
     rev = np.array([s["revolutions"] for s in states if s["revolutions"] >= start])
     rot = np.array([s["rotation"] for s in states if s["revolutions"] >= start])
@@ -113,7 +115,7 @@ def rotation_trend(states, start, omega, chamber_radius, g=9.81):
     return dict(fit_from=start, states=int(len(rev)), straight=bool(np.isnan(level)),
                 level=float(level), level_se=level_se,
                 amplitude=float(amplitude), tau_rev=float(tau),
-                held_at_wall=float(np.sqrt(g / chamber_radius) / omega),
+                held_at_wall=float(np.sqrt(G / chamber_radius) / omega),
                 slope_last_revolution=slope)
 
 
