@@ -1,6 +1,7 @@
 """A/B timing of two source trees on the same case, interleaved (a change must not cost speed).
 
     python bench/ab.py --a OLD/src --b NEW/src [--repeats 5] [--threads 1] -- SCENE --set k=v ...
+    python bench/ab.py --a src --b src --b-set force_sum=colour -- SCENE ...   (an option, one tree)
 
 Each repeat runs ``millsim run SCENE ...`` once with tree A first on PYTHONPATH and once with tree
 B, alternating, so that load changes of the machine hit both alike. Reported per tree: the median
@@ -48,25 +49,30 @@ def main(argv=None):
     ap.add_argument("--measure", default="compute_seconds",
                     help="case attribute or scalar variable timed (default: compute_seconds, the "
                          "compiled loop's seconds; packing: timed_wall_time)")
+    ap.add_argument("--b-set", action="append", default=[], metavar="K=V",
+                    help="a scene parameter for B only (repeatable): A/B of an option")
     ap.add_argument("--json", help="write the raw numbers here")
     ap.add_argument("scene_args", nargs=argparse.REMAINDER, help="-- SCENE --set k=v ...")
     args = ap.parse_args(argv)
     scene_args = [a for a in args.scene_args if a != "--"]
     trees = {"A": args.a, "B": args.b}
-    result = {"case": scene_args, "threads": args.threads, "repeats": args.repeats,
+    extra = {"A": [], "B": [a for kv in args.b_set for a in ("--set", kv)]}
+    result = {"case": scene_args, "b_set": args.b_set, "threads": args.threads,
+              "repeats": args.repeats,
               "load": os.getloadavg(), "cold_s": {}, "compute_s": {"A": [], "B": []}}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for name, src in trees.items():  # cold start, then the kernel cache stays warm
-            result["cold_s"][name] = run(src, scene_args, args.threads, tmp / f"cache{name}",
-                                         tmp / "case.nc", args.measure)[0]
+            result["cold_s"][name] = run(src, scene_args + extra[name], args.threads,
+                                         tmp / f"cache{name}", tmp / "case.nc", args.measure)[0]
         for _ in range(args.repeats):
             for name, src in trees.items():
-                _, compute = run(src, scene_args, args.threads, tmp / f"cache{name}",
-                                 tmp / "case.nc", args.measure)
+                _, compute = run(src, scene_args + extra[name], args.threads,
+                                 tmp / f"cache{name}", tmp / "case.nc", args.measure)
                 result["compute_s"][name].append(compute)
     med = {k: statistics.median(v) for k, v in result["compute_s"].items()}
-    print(f"case: {' '.join(scene_args)}  threads {args.threads}  repeats {args.repeats}  "
+    print(f"case: {' '.join(scene_args)}  B: {' '.join(args.b_set) or '-'}  "
+          f"threads {args.threads}  repeats {args.repeats}  "
           f"load {result['load'][0]:.1f}")
     for name in trees:
         v = result["compute_s"][name]

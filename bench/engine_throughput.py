@@ -2,6 +2,7 @@
 
     python bench/engine_throughput.py --case box|drum --cores N [--json FILE] [--quick]
                                       [--prep-from DIR] [--no-liggghts] [--no-start-times]
+                                      [--force-sum records|colour]
 
 Case (shared/reference/peers.md part B): 10,000 spheres r = 1 mm, rho = 2500 kg/m3, Hertz-Mindlin
 with tangential history, E = 5 MPa, nu = 0.3, COR 0.5, mu 0.3, gravity; box 44 x 44 mm, or drum
@@ -16,7 +17,8 @@ from another run's directory, so that every core count starts from the same bed.
 ``--no-liggghts``: millsim alone, from the state an earlier run left in
 ``<workdir>/millsim_<case>_state.csv`` (a machine without LIGGGHTS: the other code's row is then
 missing, not estimated). ``--no-start-times``: skip the two untimed start-up measurements (each
-a whole process; a scaling study that times only the loop needs neither).
+a whole process; a scaling study that times only the loop needs neither). ``--force-sum``: millsim's
+``PhysicsSpec.force_sum`` (default ``records``).
 """
 
 import argparse
@@ -93,6 +95,8 @@ def main(argv=None):
     ap.add_argument("--cores", type=int, default=1, help="MPI ranks / numba threads (1 to the CPUs)")
     ap.add_argument("--prep-from", help="directory of a LIGGGHTS run whose prepared state to reuse")
     ap.add_argument("--steps", type=int, default=20000)
+    ap.add_argument("--force-sum", choices=("records", "colour"), default="records",
+                    help="how millsim turns contacts into particle forces (PhysicsSpec.force_sum)")
     ap.add_argument("--json", help="write the result here")
     ap.add_argument("--quick", action="store_true", help="shorter LIGGGHTS settling/spin-up (drum)")
     ap.add_argument("--workdir", default=str(HERE / "out"))
@@ -119,7 +123,7 @@ def main(argv=None):
         lig = dict.fromkeys(("liggghts_psps", "loop_time_s", "liggghts_version", "binary"))
     # LIGGGHTS' default end of contact (limitForce off): the same force law in both codes
     values = {"container": args.case, "init_file": str(mine), "dt": 1e-6, "skin": 2e-4,
-              "convention": "unclipped"}
+              "convention": "unclipped", "force_sum": args.force_sum}
 
     if args.start_times:  # an empty kernel cache, then the same start with it filled
         with tempfile.TemporaryDirectory() as cache:
@@ -132,6 +136,7 @@ def main(argv=None):
     psps = timed["n"] * args.steps / timed["loop_s"]
     result = {
         "case": args.case, "cores": args.cores, "steps": args.steps, "n_particles": timed["n"],
+        "millsim_force_sum": args.force_sum,
         "millsim_psps": psps, "liggghts_psps": lig["liggghts_psps"],
         "ratio": psps / lig["liggghts_psps"] if lig["liggghts_psps"] else None,
         "compile_s": cold.get("process_s"), "cached_start_s": warm.get("process_s"),

@@ -71,7 +71,7 @@ from .mesh import (
 )
 from .models import NO_BREAKAGE, NO_FLUID, stable_identity
 from .neighbours import min_image, rebuilt_contacts
-from .state import Scratch
+from .state import ColourScratch, Scratch
 
 # Fast-math without the no-NaN/no-inf assumptions, so that the engine's NaN guard still sees NaN,
 # and without reassociation: LLVM reorders sums differently where it inlines one compiled function
@@ -145,10 +145,11 @@ class ChunkRunner:
     the steps since. Every time in a step is ``t + k dt`` from that same origin, so that where a
     run is cut into chunks does not change a bit of it (a time summed chunk by chunk did)."""
 
-    def __init__(self, advance, collect, layout, rolling, periodic, near_walls):
+    def __init__(self, advance, collect, layout, rolling, periodic, near_walls, colour):
         self.advance, self.collect = advance, collect
         self.slot_width, self.audit, self.implicit = layout.slot_width, layout.audit, layout.implicit
         self.rolling, self.periodic, self.near_walls = rolling, periodic, near_walls
+        self.colour = colour
 
     def __call__(self, n_steps, t, k0, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
         n = P.x.shape[0]
@@ -167,9 +168,12 @@ class ChunkRunner:
             lub_particle=np.zeros((n if implicit else 0, LP_WIDTH)),
             cg_part=np.zeros((n_blocks if implicit else 0, 3)),
             wall_near=np.zeros(n if self.near_walls else 0, dtype=np.int64))
+        if self.colour:
+            shared["force"] = np.zeros((n, 7))
         S = self._scratch(C, shared)
         step = self.advance(n_steps, 0, True, bool(prime), t, k0, dt, step0, P, C, W, B, R, A, S,
                             bs, fp)
+        self._springs_back(C, S)
         while True:
             if S.stop[0] != 0:
                 events = self.collect(bs, events, A.n_events, S.out, SLOT_BASE, C.start, C.nbr,
@@ -187,6 +191,7 @@ class ChunkRunner:
             A.counters[0] += 1
             step = self.advance(n_steps, step, False, False, t, k0, dt, step0, P, C, W, B, R, A,
                                 S, bs, fp)
+            self._springs_back(C, S)
         A.counters[1] += step
         return step, C, W, events
 
@@ -194,12 +199,74 @@ class ChunkRunner:
         """Per-slot records (see Layout) and rolling torques for the slots of list C, with the
         chunk's arrays (``shared``)."""
         slots = C.nbr.shape[0]
-        implicit = self.implicit
+        implicit, colour = self.implicit, self.colour
+        if colour:  # the slots in colour order, the springs with them for the list's lifetime
+            start, order, owner, partner = colour_slots(C.start, C.nbr)
+            return ColourScratch(out=np.empty((0, self.slot_width)), proll=np.empty((0, 2, 3)),
+                                 lub_slots=np.zeros((0, RW_WIDTH)),
+                                 lub_partner=np.empty((0, LPP_WIDTH)), colour_start=start,
+                                 colour_slot=order, colour_owner=owner, colour_partner=partner,
+                                 colour_state=C.state[order], **shared)
         return Scratch(out=np.empty((slots, self.slot_width)),
                        proll=np.empty((slots if self.rolling else 0, 2, 3)),
                        lub_slots=np.zeros((slots if implicit else 0, RW_WIDTH)),
                        lub_partner=np.empty((slots if implicit else 0, LPP_WIDTH)), **shared)
 
+    def _springs_back(self, C, S):
+        """Colour sums: the springs back to the list's slot order (list rebuilds, checkpoints and
+        contact queries read them there)."""
+        if self.colour:
+            C.state[S.colour_slot] = S.colour_state
+
+
+
+@njit(cache=True)
+def colour_slots(start, nbr):
+    """The half list's slots coloured so that no two slots of a colour share a particle (greedy,
+    rows in order: the same colours on any thread count), in colour order and by slot within a
+    colour. Returns (each colour's first place and the end, the slot, its particle and partner
+    at each place)."""
+    n, slots = start.shape[0] - 1, nbr.shape[0]
+    degree = np.zeros(max(n, 1), dtype=np.int64)
+    for i in range(n):
+        degree[i] += start[i + 1] - start[i]
+        for k in range(start[i], start[i + 1]):
+            degree[nbr[k]] += 1
+    words = (2 * degree.max()) // 64 + 1  # greedy needs at most deg i + deg j - 1 colours
+    used = np.zeros((max(n, 1), words), dtype=np.uint64)
+    colour = np.empty(slots, dtype=np.int64)
+    n_colours = 0
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            c = 0
+            for word in range(words):
+                free = ~(used[i, word] | used[j, word])
+                if free != 0:
+                    bit = 0
+                    while (free >> np.uint64(bit)) & np.uint64(1) == 0:
+                        bit += 1
+                    c = 64 * word + bit
+                    break
+            colour[k] = c
+            used[i, c // 64] |= np.uint64(1) << np.uint64(c % 64)
+            used[j, c // 64] |= np.uint64(1) << np.uint64(c % 64)
+            n_colours = max(n_colours, c + 1)
+    first = np.zeros(n_colours + 1, dtype=np.int64)
+    for k in range(slots):
+        first[colour[k] + 1] += 1
+    for c in range(n_colours):
+        first[c + 1] += first[c]
+    place = first[:-1].copy()
+    order = np.empty(slots, dtype=np.int64)
+    owner = np.empty(slots, dtype=np.int64)
+    partner = np.empty(slots, dtype=np.int64)
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            q = place[colour[k]]
+            place[colour[k]] += 1
+            order[q], owner[q], partner[q] = k, i, nbr[k]
+    return first, order, owner, partner
 
 
 @njit(cache=True)
@@ -273,8 +340,13 @@ class _Parts:
         wall_force = self._inline(_wall_force_kernel(spec, layout, contact))
         meshes = self._inline(_mesh_kernel(spec, layout, wall_force)) if spec.mesh_walls else None
         finish = self._inline(_finish_kernel(spec))
-        self.pair_block = self._jit(_pair_block_kernel(
-            self._inline(_pair_row_kernel(spec, law, brk, flu, layout, contact))))
+        if spec.force_sum == "colour":
+            self.pair_block = None
+            self.colour_block = self._jit(_colour_block_kernel(spec, law, contact))
+        else:
+            self.pair_block = self._jit(_pair_block_kernel(
+                self._inline(_pair_row_kernel(spec, law, brk, flu, layout, contact))))
+            self.colour_block = None
         self.particle_block = self._jit(_particle_block_kernel(
             spec, brk, layout,
             gather=self._inline(_gather_kernel(spec, brk, layout)),
@@ -313,8 +385,10 @@ class _Parts:
         MESHES = spec.mesh_walls
         AUDIT, IMPLICIT = layout.audit, layout.implicit
         NEAR_WALLS = near_walls(spec, layout)
+        COLOUR = spec.force_sum == "colour"
         near_walls_block = self.near_walls_block
         pair_block, particle_block = self.pair_block, self.particle_block
+        colour_block = self.colour_block
         start_block, reductions = self.start_block, self.reductions
         lub_solve = lub_finish_block = None
         if IMPLICIT:
@@ -340,6 +414,8 @@ class _Parts:
             stop, rebuild = S.stop, S.rebuild
             wall_part, audit_part = S.wall_part, S.audit_part
             rows = balanced_rows(C.start, n_blocks)  # the pair pass's ranges of particles
+            if COLOUR:
+                colours = S.colour_start  # each colour's first place in the colour order
             if NEAR_WALLS:  # the walls each particle can reach in this list's lifetime
                 for blk in prange(n_blocks):
                     near_walls_block(np.int64(blk), P, W, R, S)
@@ -349,8 +425,15 @@ class _Parts:
                     # fluid film): the first drift uses them. dt = 0 evaluates without advancing
                     # springs; the particle pass takes last = True (run-time values, not
                     # literals: a literal argument compiles another variant).
-                    for b in prange(n_blocks):
-                        pair_block(rows[b], rows[b + 1], step0, 0.0, P, C, R, err, S, bs, fp)
+                    if COLOUR:  # colour by colour; a colour's slots share no particle
+                        for c in range(colours.shape[0] - 1):
+                            lo, hi = colours[c], colours[c + 1]
+                            for b in prange((hi - lo + BLOCK - 1) // BLOCK):
+                                colour_block(lo + b * BLOCK, min(hi, lo + (b + 1) * BLOCK), step0,
+                                             0.0, P, R, err, S)
+                    else:
+                        for b in prange(n_blocks):
+                            pair_block(rows[b], rows[b + 1], step0, 0.0, P, C, R, err, S, bs, fp)
                     t_start = t + k0 * dt
                     if TRANSLATING:
                         place_walls(W.table, t_start)
@@ -390,8 +473,15 @@ class _Parts:
             warm = False  # implicit lubrication: impulses of the last step kept in the rows
             while step < n_steps:
                 step_now = step0 + step
-                for b in prange(n_blocks):
-                    pair_block(rows[b], rows[b + 1], step_now, dt, P, C, R, err, S, bs, fp)
+                if COLOUR:
+                    for c in range(colours.shape[0] - 1):
+                        lo, hi = colours[c], colours[c + 1]
+                        for b in prange((hi - lo + BLOCK - 1) // BLOCK):
+                            colour_block(lo + b * BLOCK, min(hi, lo + (b + 1) * BLOCK), step_now,
+                                         dt, P, R, err, S)
+                else:
+                    for b in prange(n_blocks):
+                        pair_block(rows[b], rows[b + 1], step_now, dt, P, C, R, err, S, bs, fp)
                 last = step == n_steps - 1 or stop[0] != 0
                 t_end = t + (k0 + step + 1) * dt  # where the step's forces are evaluated
                 t_pose = t + (k0 + step + 2) * dt  # body particles' pose for the next step
@@ -428,7 +518,7 @@ class _Parts:
             return step
 
         advance = self._parallel(advance)
-        return ChunkRunner(advance, brk.collect, layout, ROLLING, PERIODIC, NEAR_WALLS)
+        return ChunkRunner(advance, brk.collect, layout, ROLLING, PERIODIC, NEAR_WALLS, COLOUR)
 
     def _lub_solver(self):
         """The implicit lubrication solve (engine.implicit); ``advance``'s finish pass applies it.
@@ -682,6 +772,85 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
     return pair_row
 
 
+def _colour_block_kernel(spec, law, contact):
+    """Colour sums (PhysicsSpec.force_sum): the contacts at places lo to hi - 1 of the colour
+    order, each added straight into both particles' sums (Scratch.force). The places of one
+    colour share no particle, so threads never add into the same sum, and each sum is taken
+    colour by colour whatever the thread count. The same contact as ``_pair_row_kernel``'s for
+    a run without breakage model or fluid."""
+    PERIODIC, ROLLING, PRESSURE = spec.periodic, spec.rolling_friction, spec.normal_force_sum
+    SPRING = law.spring_columns
+
+    def colour_block(lo, hi, step, dt, P, R, err, S):
+        x, v, w, radius = P.x, P.v, P.w, P.radius
+        owner, partner, state, force = S.colour_owner, S.colour_partner, S.colour_state, S.force
+        for q in range(lo, hi):
+            i, j = owner[q], partner[q]
+            d0 = x[i, 0] - x[j, 0]
+            d1 = x[i, 1] - x[j, 1]
+            d2 = x[i, 2] - x[j, 2]
+            if PERIODIC:
+                d0 = min_image(d0, 0, R.box_len)
+                d1 = min_image(d1, 1, R.box_len)
+                d2 = min_image(d2, 2, R.box_len)
+            rsum = radius[i] + radius[j]
+            dist2 = d0 * d0 + d1 * d1 + d2 * d2
+            if dist2 >= rsum * rsum:
+                for c in range(SPRING):
+                    state[q, c] = 0.0
+                continue
+            dist = math.sqrt(dist2)
+            inv = 1.0 / dist
+            n0, n1, n2 = d0 * inv, d1 * inv, d2 * inv
+            xi = rsum - dist
+            ri, rj = radius[i], radius[j]
+            if xi > R.max_overlap * min(ri, rj) and err[0] == 0:
+                err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
+            ai = ri - 0.5 * xi
+            aj = rj - 0.5 * xi
+            s0 = ai * w[i, 0] + aj * w[j, 0]
+            s1 = ai * w[i, 1] + aj * w[j, 1]
+            s2 = ai * w[i, 2] + aj * w[j, 2]
+            vr0 = v[i, 0] - v[j, 0] - (s1 * n2 - s2 * n1)
+            vr1 = v[i, 1] - v[j, 1] - (s2 * n0 - s0 * n2)
+            vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
+            m_eff = 1.0 / (P.inv_mass[i] + P.inv_mass[j])
+            p = R.pair_params[P.material[i], P.material[j]]
+            fn, f0, f1, f2, fn_el, mr = contact(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff,
+                                                ri * rj / rsum, state, q, dt)
+            g0 = fn * n0 + f0
+            g1 = fn * n1 + f1
+            g2 = fn * n2 + f2
+            c0 = n1 * f2 - n2 * f1  # n x F_t, the same for both bodies
+            c1 = n2 * f0 - n0 * f2
+            c2 = n0 * f1 - n1 * f0
+            force[i, 0] += g0
+            force[i, 1] += g1
+            force[i, 2] += g2
+            force[j, 0] -= g0
+            force[j, 1] -= g1
+            force[j, 2] -= g2
+            force[i, 3] -= ai * c0
+            force[i, 4] -= ai * c1
+            force[i, 5] -= ai * c2
+            force[j, 3] -= aj * c0
+            force[j, 4] -= aj * c1
+            force[j, 5] -= aj * c2
+            if PRESSURE:
+                force[i, 6] += fn
+                force[j, 6] += fn
+            if ROLLING:
+                wi = math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+                wj = math.sqrt(w[j, 0] ** 2 + w[j, 1] ** 2 + w[j, 2] ** 2)
+                for a in range(3):
+                    if wi > 0.0:
+                        force[i, 3 + a] -= mr * ri * w[i, a] / wi
+                    if wj > 0.0:
+                        force[j, 3 + a] -= mr * rj * w[j, a] / wj
+
+    return colour_block
+
+
 def _particle_block_kernel(spec, brk, layout, gather, walls, finish):
     """Particle pass for one block: gather, walls, breakage decision, integrate (with implicit
     lubrication: keep the loads for the solve; ``_lub_finish_kernel`` integrates)."""
@@ -722,6 +891,17 @@ def _gather_kernel(spec, brk, layout):
     FLUID = layout.fluid and not layout.implicit  # explicit lubrication torques in the record
     COL_BRK, COL_T, COL_AUD = SLOT_BASE, layout.slot_fluid, layout.slot_audit
     share = brk.slot_share
+
+    if spec.force_sum == "colour":
+        def colour_sums(i, P, C, S, blk, bs):
+            """The sums the colour pass left (then zeroed for the next step's)."""
+            f = S.force
+            F0, F1, F2, T0, T1, T2, FS = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5], f[i, 6]
+            for c in range(7):
+                f[i, c] = 0.0
+            return F0, F1, F2, T0, T1, T2, FS, (0.0, 0.0, 0.0, 0.0, 0.0)
+
+        return colour_sums
 
     def gather(i, P, C, S, blk, bs):
         start, rev_start, rev_slot = C.start, C.rev_start, C.rev_slot

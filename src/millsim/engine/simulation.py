@@ -225,6 +225,9 @@ class Simulation:
         for model, kind in ((breakage, "breakage"), (fluid, "fluid")):
             if model is not None and getattr(model, "kind", None) != kind:
                 raise ValueError(f"{kind}: expected a {kind} model, got {model!r}")
+            if model is not None and spec.force_sum == "colour":
+                raise ValueError(f"force_sum: 'colour' keeps no slot records, which the {kind} "
+                                 "model reads; use 'records'")
         self.thickness = float(thickness)
         self.pair_params = table.pair_params(spec.convention)
         radius = np.asarray(radius, dtype=float)

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from .integrators import INTEGRATORS
 
 CONVENTIONS = ("clipped", "unclipped")
+FORCE_SUMS = ("records", "colour")
 
 _RUNNERS = {}
 
@@ -35,6 +36,13 @@ class PhysicsSpec:
             force chains).
         energy_audit: integrate the power dissipated by contact damping, by the tangential force
             (centre slip and rotational slip) and by lubrication (normal, tangential).
+        force_sum: how the pair contacts become particle forces, both the same numbers on any
+            thread count. ``records`` (default): each slot writes a record, and each particle
+            sums its records in a fixed order (what breakage models and lubrication read).
+            ``colour``: the list's slots are coloured so that no two of a colour share a
+            particle, and each contact is added straight into both particles' sums, colour by
+            colour (faster; other rounding than ``records``; no breakage model, fluid or energy
+            audit; docs/engine.md, "Force sums").
     """
 
     dim: int = 3
@@ -50,6 +58,7 @@ class PhysicsSpec:
     periodic: bool = False
     normal_force_sum: bool = False
     energy_audit: bool = False
+    force_sum: str = "records"
 
     def __post_init__(self):
         if self.dim not in (2, 3):
@@ -64,6 +73,11 @@ class PhysicsSpec:
             raise ValueError("translating_walls: needs walls=True")
         if self.mesh_walls and not (self.walls and self.dim == 3):
             raise ValueError("mesh_walls: needs walls=True and dim=3")
+        if self.force_sum not in FORCE_SUMS:
+            raise ValueError(f"force_sum: must be one of {FORCE_SUMS}, got {self.force_sum!r}")
+        if self.force_sum == "colour" and self.energy_audit:
+            raise ValueError("force_sum: 'colour' keeps no slot records, which energy_audit "
+                             "reads; use 'records'")
 
     @property
     def clip_normal(self):

@@ -50,10 +50,17 @@ RunSettings = namedtuple("RunSettings", [
 # (engine.implicit) the rows per slot and per particle and wall, each pair row's share on its
 # partner in a CG product, the per-particle loads and velocities of the solve, and its per-block
 # partial sums (length 0 otherwise); in dry runs with walls, each particle's near-wall bit mask
-# (engine.loop.near_walls).
+# (engine.loop.near_walls). ColourScratch, with force_sum "colour" (engine.loop.colour_slots),
+# adds each particle's force, torque and normal-force sums, the list's slots in colour order (each
+# colour's first place, the slot, its particle and partner) and the springs in that order.
 Scratch = namedtuple("Scratch", ["out", "proll", "wall_part", "audit_part", "stop", "rebuild",
                                  "lub_slots", "lub_rows", "lub_partner", "lub_particle",
                                  "cg_part", "wall_near"])
+# A separate type, so that the other runs' loop is typed and compiled as before (with more
+# fields, LLVM inlined and fused the implicit solve otherwise: other rounding).
+ColourScratch = namedtuple("ColourScratch", [*Scratch._fields, "force", "colour_start",
+                                             "colour_slot", "colour_owner", "colour_partner",
+                                             "colour_state"])
 # counters: [list rebuilds, steps, implicit-lubrication CG iterations in all, most in one step];
 # err: [guard code, step, particle, partner]; dissipation:
 # energy per audit term [J] then the last step's power per term [W]; n_events: rows used in

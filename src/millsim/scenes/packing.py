@@ -14,6 +14,7 @@ import numpy as np
 from ..engine import PhysicsSpec, Simulation, StepPolicy
 from ..engine.mesh import signed_clearance
 from ..engine.mesh_io import read_mesh
+from ..engine.spec import FORCE_SUMS
 from ..models import Interaction, Material, MaterialTable
 from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, check_particle_memory, register
 from .driver import Case, Series
@@ -35,6 +36,8 @@ PARAMS = (
     Param("liner_scale", 1.0, "factor from the liner STL's units to m (1e-3: mm)", "1", 0.0,
           lo_open=True),
     Param("integrator", "verlet", "time integrator", choices=("verlet", "gear")),
+    Param("force_sum", "records", "how contacts become particle forces (engine.spec.PhysicsSpec)",
+          choices=FORCE_SUMS),
     Param("skin", 2e-4, "Verlet skin", "m", 0.0, lo_open=True),
     Param("settle_dt", 1e-5, "time step of the settling and spin-up stages", "s", 0.0, lo_open=True),
     Param("settle_steps", 25000, "settling steps (skipped with init_file)", "1", 0),
@@ -126,6 +129,7 @@ def build(values):
                           "hertz_mindlin")
     spec = PhysicsSpec(dim=3, integrator=values["integrator"], convention=values["convention"],
                        rolling_friction=values["rolling_friction"] > 0, walls=True,
+                       force_sum=values["force_sum"],
                        mesh_walls=bool(values["liner"]) and values["container"] == "drum")
     v = w = None
     if values["init_file"]:

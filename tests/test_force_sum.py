@@ -1,0 +1,140 @@
+"""Colour sums (PhysicsSpec.force_sum = "colour"): the colouring, the same numbers on any thread
+count, the same physics as the slot records, and what the option refuses."""
+
+import math
+
+import numba
+import numpy as np
+import pytest
+
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.engine.loop import colour_slots
+from millsim.models import Interaction, Material, MaterialTable
+from millsim.models.lubrication import Lubrication
+
+
+def _table(**inter):
+    return MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(**inter)},
+                         "hertz_mindlin")
+
+
+def _dense_bed(n, force_sum, seed=4):
+    """Spheres dropped in a box: contacts, walls and list rebuilds all active."""
+    rng = np.random.default_rng(seed)
+    side = int(math.ceil(n ** (1 / 3)))
+    g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3)[:n]
+    x = (g + 0.5) * 2.1e-3 + rng.uniform(-1e-4, 1e-4, (n, 3))
+    w = side * 2.1e-3
+    walls = [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")]
+    walls += [dict(kind="plane", point=p, normal=nv, material="m") for p, nv in
+              [((0, 0, 0), (1, 0, 0)), ((w, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
+               ((0, w, 0), (0, -1, 0))]]
+    spec = PhysicsSpec(dim=3, walls=True, force_sum=force_sum)
+    return Simulation(spec, _table(restitution=0.5, friction=0.3), x=x, radius=np.full(n, 1e-3),
+                      material="m", v=rng.normal(0, 0.05, (n, 3)), walls=walls,
+                      step=StepPolicy(dt=2e-5))
+
+
+def _pressed_gas(force_sum, seed=7):
+    """A periodic box of touching and nearly touching spheres of three sizes, spinning, without
+    gravity: rolling friction and the normal-force sums compiled in."""
+    rng = np.random.default_rng(seed)
+    side = 7
+    g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    box = side * 2.0e-3
+    x = (g + 0.5) * 2.0e-3 + rng.uniform(-5e-5, 5e-5, g.shape)  # overlaps below 0.25 r
+    radius = rng.choice([0.95e-3, 1.0e-3, 1.05e-3], len(x))
+    spec = PhysicsSpec(dim=3, gravity=False, periodic=True, rolling_friction=True,
+                       normal_force_sum=True, force_sum=force_sum)
+    table = _table(restitution=0.5, friction=0.4, rolling_friction=0.1)
+    return Simulation(spec, table, x=x, radius=radius, material="m", v=rng.normal(0, 0.1, x.shape),
+                      w=rng.normal(0, 100.0, x.shape), box=(np.zeros(3), np.full(3, box)),
+                      step=StepPolicy(dt=1e-6))
+
+
+def test_colouring_is_proper_and_complete():
+    sim = _dense_bed(2600, "records")
+    sim.run(1)
+    start, nbr = sim.contacts.start, sim.contacts.nbr
+    first, slot, owner, partner = colour_slots(start, nbr)
+    assert first[0] == 0 and first[-1] == len(nbr) and (np.diff(first) > 0).all()
+    assert np.array_equal(np.sort(slot), np.arange(len(nbr)))  # every slot once
+    row_of = np.repeat(np.arange(len(start) - 1), np.diff(start))
+    assert np.array_equal(owner, row_of[slot]) and np.array_equal(partner, nbr[slot])
+    for c in range(len(first) - 1):  # no particle twice in a colour
+        ends = np.concatenate([owner[first[c]:first[c + 1]], partner[first[c]:first[c + 1]]])
+        assert len(np.unique(ends)) == len(ends), c
+    # greedy colouring needs at most (deg i + deg j - 1) colours over any slot
+    degree = np.bincount(np.concatenate([row_of, nbr]), minlength=len(start) - 1)
+    assert len(first) - 1 <= 2 * degree.max() - 1
+
+
+def test_colour_sums_same_numbers_on_one_and_two_threads():
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs 2 threads")
+    runs = []
+    for threads in (1, 2):
+        sim = _dense_bed(2600, "colour")  # above the serial threshold: 2 threads run in parallel
+        sim.run(400, chunk=200, threads=threads)
+        assert sim.counters[0] > 0  # the list was rebuilt: springs went back and forth
+        runs.append((sim.particles.x.copy(), sim.particles.w.copy(), sim.contacts.state.copy(),
+                     [sim.impulse(wall=k) for k in range(len(sim.walls))]))
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
+
+
+def _agree(a, b, steps):
+    for sim in (a, b):
+        sim.run(steps, chunk=steps)
+    pa, pb = a.particles, b.particles
+    moved = np.abs(pa.x - a._x_start).max()
+    # the same contacts summed in another order: rounding apart, far below the motion
+    assert np.abs(pa.x - pb.x).max() < 1e-9 * moved
+    assert np.abs(pa.v - pb.v).max() < 1e-9 * np.abs(pa.v).max()
+    assert np.abs(pa.w - pb.w).max() < 1e-9 * np.abs(pa.w).max()
+    assert np.array_equal(a.contacts.nbr, b.contacts.nbr)
+    assert np.abs(a.contacts.state - b.contacts.state).max() < 1e-9 * np.abs(a.contacts.state).max()
+    return pa, pb
+
+
+def test_colour_sums_agree_with_records_in_a_bed_with_walls():
+    a, b = _dense_bed(2600, "records"), _dense_bed(2600, "colour")
+    for sim in (a, b):
+        sim._x_start = sim.particles.x.copy()
+    _agree(a, b, 200)
+    impulses = [(a.impulse(wall=k), b.impulse(wall=k)) for k in range(len(a.walls))]
+    for ia, ib in impulses:
+        assert np.abs(np.asarray(ia) - np.asarray(ib)).max() < 1e-9 * np.abs(ia).max()
+
+
+def test_colour_sums_agree_with_records_with_rolling_friction_and_force_sums():
+    a, b = _pressed_gas("records"), _pressed_gas("colour")
+    for sim in (a, b):
+        sim._x_start = sim.particles.x.copy()
+    pa, pb = _agree(a, b, 300)
+    assert (pa.fn_sum > 0).sum() > len(pa.fn_sum) // 4  # many particles in contact
+    assert np.abs(pa.fn_sum - pb.fn_sum).max() < 1e-9 * pa.fn_sum.max()
+
+
+def test_colour_sums_conserve_momentum():
+    """Each contact adds the same force into both bodies with opposite signs: the total momentum
+    of a periodic box without gravity stays what it was (to rounding)."""
+    sim = _pressed_gas("colour")
+    m = sim.masses()
+    p0 = (m[:, None] * sim.particles.v).sum(0)
+    scale = (m[:, None] * np.abs(sim.particles.v)).sum()
+    sim.run(2000, chunk=1000)
+    assert sim.counters[0] > 0
+    p1 = (m[:, None] * sim.particles.v).sum(0)
+    assert np.abs(p1 - p0).max() < 1e-12 * scale
+
+
+def test_colour_sums_refuse_what_reads_slot_records():
+    with pytest.raises(ValueError, match="force_sum: 'colour' keeps no slot records"):
+        PhysicsSpec(energy_audit=True, force_sum="colour")
+    with pytest.raises(ValueError, match="force_sum: must be one of"):
+        PhysicsSpec(force_sum="scatter")
+    spec = PhysicsSpec(dim=3, gravity=False, force_sum="colour")
+    with pytest.raises(ValueError, match="which the fluid model reads"):
+        Simulation(spec, _table(), x=[[0, 0, 0]], radius=[1e-3], material="m",
+                   fluid=Lubrication(eta=0.1))
