@@ -1,7 +1,7 @@
 """Where the step loop spends its time: a sampling profile (Linux ``perf``) of the compiled passes.
 
     python bench/profile_loop.py [--case box|drum|ls1] [--state CSV] [--seconds 12] [--src DIR]
-                                 [--threads N] [--json FILE]
+                                 [--threads N] [--force-sum records|colour] [--json FILE]
 
 Runs the throughput case of ``bench/engine_throughput.py`` (the settled 10,000-sphere bed or the
 spun-up drum, from the state that script wrote, ``bench/out/millsim_<case>_state.csv``), or
@@ -120,6 +120,8 @@ def main(argv=None):
     ap.add_argument("--seconds", type=float, default=12.0)
     ap.add_argument("--src", default=str(HERE.parent / "src"), help="source tree to profile")
     ap.add_argument("--threads", type=int, default=1, help="numba threads")
+    ap.add_argument("--force-sum", choices=("records", "colour"), default="records",
+                    help="box and drum: PhysicsSpec.force_sum")
     ap.add_argument("--json", help="write the result here")
     args = ap.parse_args(argv)
     if shutil.which("perf") is None:
@@ -132,7 +134,7 @@ def main(argv=None):
             ap.error(f"{state}: no such state; write it with python bench/engine_throughput.py "
                      f"--case {args.case} --cores 1")
         values = {"container": args.case, "init_file": str(state), "dt": 1e-6, "skin": 2e-4,
-                  "convention": "unclipped"}
+                  "convention": "unclipped", "force_sum": args.force_sum}
     with tempfile.TemporaryDirectory() as work:
         work = Path(work)
         ready, data = work / "ready", work / "perf.data"

@@ -342,7 +342,8 @@ class _Parts:
         finish = self._inline(_finish_kernel(spec))
         if spec.force_sum == "colour":
             self.pair_block = None
-            self.colour_block = self._jit(_colour_block_kernel(spec, law, contact))
+            self.colour_block = self._jit(_colour_block_kernel(
+                spec, law, self._inline(_contact_kernel(spec, law, inlined=True))))
         else:
             self.pair_block = self._jit(_pair_block_kernel(
                 self._inline(_pair_row_kernel(spec, law, brk, flu, layout, contact))))
@@ -613,11 +614,12 @@ class _Parts:
 
 
 # ---- sub-kernels (factories: the spec's options become the closure's constants) ----------------
-def _contact_kernel(spec, law):
-    """One contact evaluation for pairs and walls: the law, then rolling friction."""
+def _contact_kernel(spec, law, inlined=False):
+    """One contact evaluation for pairs and walls: the law, then rolling friction (``inlined``:
+    the law inlined into the caller, ContactLaw.inlined_force)."""
     CLIP, ROLLING = spec.clip_normal, spec.rolling_friction
     ROLL = law.rolling_column
-    force = law.force
+    force = law.inlined_force if inlined else law.force
 
     def contact(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff, r_eff, hist, k, dt):
         fn, f0, f1, f2, fn_el = force(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff, r_eff, CLIP, hist,
@@ -627,6 +629,8 @@ def _contact_kernel(spec, law):
         mr = p[ROLL] * fn_el if ROLLING else 0.0
         return fn, f0, f1, f2, fn_el, mr
 
+    if inlined:  # its own name: the kernel cache keys the closure by it (_Parts._inline)
+        contact.__name__ = contact.__qualname__ = "contact_inlined"
     return contact
 
 

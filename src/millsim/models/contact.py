@@ -153,22 +153,40 @@ def hertz_mindlin(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt
 
 
 # ---- the uniform kernel the step loop calls: (fn, F_t on i (3), elastic normal force) -----------
-def _kernel(fn, name):
-    return stable_identity(njit(inline="always", cache=True, fastmath=FAST)(fn), f"contact.{name}")
+# Each kernel in two builds: the law called as a compiled function (LLVM inlines it where its
+# heuristics choose: the slot-record pass and the wall contacts keep their rounding), and the law
+# inlined by numba into every caller (the colour sums' pass, where LLVM left it out of line and
+# the call took a third of the time: docs/results/engine_speed.md, "Colour sums").
+def _kernel(make, law, name, inlined=False):
+    if inlined:
+        law = stable_identity(njit(inline="always", cache=True, fastmath=FAST)(law.py_func),
+                              f"contact.{name}.law_inlined")
+        name += ".inlined"
+    return stable_identity(njit(inline="always", cache=True, fastmath=FAST)(make(law)),
+                           f"contact.{name}")
 
 
-def _linear_hw_force(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt):
-    fn, f0, f1, f2 = linear_hw(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip)
-    return fn, f0, f1, f2, p[P_K_N] * xi
+def _linear_hw_force(law):
+    def linear_hw_force(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt):
+        fn, f0, f1, f2 = law(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip)
+        return fn, f0, f1, f2, p[P_K_N] * xi
+
+    return linear_hw_force
 
 
-def _linear_history_force(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt):
-    fn, f0, f1, f2 = linear_history(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip, hist, k, dt)
-    return fn, f0, f1, f2, p[P_K_N] * xi
+def _linear_history_force(law):
+    def linear_history_force(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt):
+        fn, f0, f1, f2 = law(p, xi, n0, n1, n2, v0, v1, v2, m_eff, clip, hist, k, dt)
+        return fn, f0, f1, f2, p[P_K_N] * xi
+
+    return linear_history_force
 
 
-def _hertz_mindlin_force(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt):
-    return hertz_mindlin(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt)
+def _hertz_mindlin_force(law):
+    def hertz_mindlin_force(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt):
+        return law(p, xi, n0, n1, n2, v0, v1, v2, m_eff, r_eff, clip, hist, k, dt)
+
+    return hertz_mindlin_force
 
 
 # ---- time-step bounds ----------------------------------------------------------------------------
@@ -238,13 +256,15 @@ class ContactLaw:
     name: ``linear_hw``, ``linear_history`` or ``hertz_mindlin``; force: the compiled kernel
     (p, xi, n, vrel, m_eff, r_eff, clip, hist, k, dt) -> (fn, F_t (3), elastic fn);
     spring_columns: per-contact state it keeps (the tangential spring); rolling_column: the
-    parameter-row column of the rolling-friction coefficient (-1: the law has none).
+    parameter-row column of the rolling-friction coefficient (-1: the law has none);
+    inlined_force: the same kernel with the law inlined into its caller (colour sums).
     """
 
     name: str
     force: object
     spring_columns: int
     rolling_column: int = -1
+    inlined_force: object = None
 
     def pair_bounds(self, materials, params, a, b, ra, ma, rb, mb, partner, impact_speed, dim,
                     integrator):
@@ -293,9 +313,13 @@ class ContactLaw:
         return 0.0, 0.0
 
 
+def _law(name, make, law, spring_columns, rolling_column=-1):
+    return ContactLaw(name, _kernel(make, law, name), spring_columns, rolling_column,
+                      _kernel(make, law, name, inlined=True))
+
+
 LAWS = {
-    "linear_hw": ContactLaw("linear_hw", _kernel(_linear_hw_force, "linear_hw"), 0),
-    "linear_history": ContactLaw("linear_history", _kernel(_linear_history_force, "linear_history"), 3),
-    "hertz_mindlin": ContactLaw("hertz_mindlin", _kernel(_hertz_mindlin_force, "hertz_mindlin"), 3,
-                                P_MU_ROLL),
+    "linear_hw": _law("linear_hw", _linear_hw_force, linear_hw, 0),
+    "linear_history": _law("linear_history", _linear_history_force, linear_history, 3),
+    "hertz_mindlin": _law("hertz_mindlin", _hertz_mindlin_force, hertz_mindlin, 3, P_MU_ROLL),
 }
