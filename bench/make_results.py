@@ -101,15 +101,19 @@ def throughput():
              "dt = 1e-6 s in both codes in the same run; particle-steps per second of the timed loop "
              "(one measurement per file). Command (per row): "
              "`python bench/engine_throughput.py --case <case> --cores <cores> "
-             "--json bench/out/<case>_<cores>.json`.", ""]
+             "[--force-sum colour] --json bench/out/<case>_<cores>[_<force sum>_<date>].json` "
+             "(force sum: `PhysicsSpec.force_sum`, records before it existed). The runs of "
+             "different dates ran on different VMs: compare ratios.", ""]
     rows = []
     for p, d in files:
-        rows.append([d["case"], d["cores"], _g(d["millsim_psps"]), _g(d["liggghts_psps"]),
+        rows.append([d["case"], d["cores"], d.get("millsim_force_sum", "records"),
+                     _g(d["millsim_psps"]), _g(d["liggghts_psps"]),
                      f"{d['ratio']:.2f}", _g(d["millsim_contacts_per_particle"]),
                      d.get("millsim_list_rebuilds", "-"), _seconds(d.get("compile_s")),
                      _seconds(d.get("cached_start_s")), _load_note(_one_minute(d.get("loadavg"))),
                      p.name])
-    text.append(_table(["case", "cores", "millsim [particle-steps/s]", "LIGGGHTS [particle-steps/s]",
+    text.append(_table(["case", "cores", "force sum", "millsim [particle-steps/s]",
+                        "LIGGGHTS [particle-steps/s]",
                         "millsim / LIGGGHTS", "contacts/particle", "list rebuilds", "compile [s]",
                         "cached start [s]", "load (1 min)", "file"], rows))
     ratios = [d["ratio"] for _, d in files]

@@ -219,7 +219,6 @@ class ChunkRunner:
             C.state[S.colour_slot] = S.colour_state
 
 
-
 @njit(cache=True)
 def colour_slots(start, nbr):
     """The half list's slots coloured so that no two slots of a colour share a particle (greedy,
