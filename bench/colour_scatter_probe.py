@@ -19,6 +19,8 @@ bed):
   straight into both particles' sums. Each particle's sum is taken in colour order whatever the
   thread count, and every thread count runs the same compiled function: the same numbers on any
   thread count, without the records.
+- ``colour_index``: the same, the springs left in the list's slot order (reached through each
+  place's slot index) instead of copied into colour order.
 
 Variants alternate within each repeat; compile time excluded. Prints particle-steps/s per variant
 (median of the repeats), the colouring's size, and how far the variants' states are apart after
