@@ -13,9 +13,8 @@ from millsim.models import Interaction, Material, MaterialTable
 from millsim.models.lubrication import Lubrication
 
 
-def _table(**inter):
-    return MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(**inter)},
-                         "hertz_mindlin")
+def _table(law="hertz_mindlin", **inter):
+    return MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(**inter)}, law)
 
 
 def _dense_bed(n, force_sum, seed=4):
@@ -35,18 +34,21 @@ def _dense_bed(n, force_sum, seed=4):
                       step=StepPolicy(dt=2e-5))
 
 
-def _pressed_gas(force_sum, seed=7):
+def _pressed_gas(force_sum, law="hertz_mindlin", seed=7):
     """A periodic box of touching and nearly touching spheres of three sizes, spinning, without
-    gravity: rolling friction and the normal-force sums compiled in."""
+    gravity: rolling friction (Hertz-Mindlin) and the normal-force sums compiled in."""
     rng = np.random.default_rng(seed)
     side = 7
     g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3)
     box = side * 2.0e-3
     x = (g + 0.5) * 2.0e-3 + rng.uniform(-5e-5, 5e-5, g.shape)  # overlaps below 0.25 r
     radius = rng.choice([0.95e-3, 1.0e-3, 1.05e-3], len(x))
-    spec = PhysicsSpec(dim=3, gravity=False, periodic=True, rolling_friction=True,
+    rolling = law == "hertz_mindlin"
+    spec = PhysicsSpec(dim=3, gravity=False, periodic=True, rolling_friction=rolling,
                        normal_force_sum=True, force_sum=force_sum)
-    table = _table(restitution=0.5, friction=0.4, rolling_friction=0.1)
+    stiffness = {} if rolling else dict(normal_stiffness=2e3)  # linear law: k_n [N/m]
+    table = _table(law, restitution=0.5, friction=0.4, rolling_friction=0.1 if rolling else 0.0,
+                   **stiffness)
     return Simulation(spec, table, x=x, radius=radius, material="m", v=rng.normal(0, 0.1, x.shape),
                       w=rng.normal(0, 100.0, x.shape), box=(np.zeros(3), np.full(3, box)),
                       step=StepPolicy(dt=1e-6))
@@ -107,8 +109,9 @@ def test_colour_sums_agree_with_records_in_a_bed_with_walls():
         assert np.abs(np.asarray(ia) - np.asarray(ib)).max() < 1e-9 * np.abs(ia).max()
 
 
-def test_colour_sums_agree_with_records_with_rolling_friction_and_force_sums():
-    a, b = _pressed_gas("records"), _pressed_gas("colour")
+@pytest.mark.parametrize("law", ["hertz_mindlin", "linear_history"])
+def test_colour_sums_agree_with_records_with_rolling_friction_and_force_sums(law):
+    a, b = _pressed_gas("records", law), _pressed_gas("colour", law)
     for sim in (a, b):
         sim._x_start = sim.particles.x.copy()
     pa, pb = _agree(a, b, 300)
