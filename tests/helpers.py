@@ -1,6 +1,11 @@
 """Small builders shared by the tests."""
 
+import math
+
 import numpy as np
+
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.models import Interaction, Material, MaterialTable
 
 
 def random_gas(n, box, radius_range, rng, dim=3):
@@ -39,3 +44,21 @@ def clipped_damping_ratio(e):
     if e >= 1.0:
         return 0.0
     return brentq(lambda z: clipped_linear_restitution(z) - e, 0.0, 1.0 - 1e-12, xtol=1e-15)
+
+
+def dense_bed(n, seed=4, force_sum="records"):
+    """Spheres dropped in a box: contacts, walls and list rebuilds all active."""
+    rng = np.random.default_rng(seed)
+    side = int(math.ceil(n ** (1 / 3)))
+    g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3)[:n]
+    x = (g + 0.5) * 2.1e-3 + rng.uniform(-1e-4, 1e-4, (n, 3))
+    w = side * 2.1e-3
+    walls = [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")]
+    walls += [dict(kind="plane", point=p, normal=nv, material="m") for p, nv in
+              [((0, 0, 0), (1, 0, 0)), ((w, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
+               ((0, w, 0), (0, -1, 0))]]
+    table = MaterialTable([Material("m", 2500.0, 5e6, 0.3)],
+                          {"*": Interaction(restitution=0.5, friction=0.3)}, "hertz_mindlin")
+    return Simulation(PhysicsSpec(dim=3, walls=True, force_sum=force_sum), table, x=x,
+                      radius=np.full(n, 1e-3), material="m", v=rng.normal(0, 0.05, (n, 3)),
+                      walls=walls, step=StepPolicy(dt=2e-5))

@@ -17,6 +17,8 @@ from millsim.engine.neighbours import brute_force_pairs, build_verlet
 from millsim.engine.state import empty_contacts
 from millsim.models import Interaction, Material, MaterialTable
 
+from helpers import dense_bed as _dense_bed
+
 
 def _table(law="hertz_mindlin", **inter):
     return MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(**inter)}, law)
@@ -122,23 +124,6 @@ def test_contact_state_survives_rebuild():
             np.testing.assert_array_equal(st2[k], remember[p])
         else:
             assert (st2[k] == 0).all()
-
-
-def _dense_bed(n, seed=4):
-    """Spheres dropped in a box: contacts, walls and list rebuilds all active."""
-    rng = np.random.default_rng(seed)
-    side = int(math.ceil(n ** (1 / 3)))
-    g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3)[:n]
-    x = (g + 0.5) * 2.1e-3 + rng.uniform(-1e-4, 1e-4, (n, 3))
-    w = side * 2.1e-3
-    walls = [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")]
-    walls += [dict(kind="plane", point=p, normal=nv, material="m") for p, nv in
-              [((0, 0, 0), (1, 0, 0)), ((w, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
-               ((0, w, 0), (0, -1, 0))]]
-    spec = PhysicsSpec(dim=3, walls=True)
-    return Simulation(spec, _table(restitution=0.5, friction=0.3), x=x, radius=np.full(n, 1e-3),
-                      material="m", v=rng.normal(0, 0.05, (n, 3)), walls=walls,
-                      step=StepPolicy(dt=2e-5))
 
 
 def test_same_numbers_on_one_and_two_threads():

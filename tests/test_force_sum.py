@@ -1,7 +1,6 @@
 """Colour sums (PhysicsSpec.force_sum = "colour"): the colouring, the same numbers on any thread
 count, the same physics as the slot records, and what the option refuses."""
 
-import math
 
 import numba
 import numpy as np
@@ -12,26 +11,11 @@ from millsim.engine.loop import colour_slots
 from millsim.models import Interaction, Material, MaterialTable
 from millsim.models.lubrication import Lubrication
 
+from helpers import dense_bed
+
 
 def _table(law="hertz_mindlin", **inter):
     return MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(**inter)}, law)
-
-
-def _dense_bed(n, force_sum, seed=4):
-    """Spheres dropped in a box: contacts, walls and list rebuilds all active."""
-    rng = np.random.default_rng(seed)
-    side = int(math.ceil(n ** (1 / 3)))
-    g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3)[:n]
-    x = (g + 0.5) * 2.1e-3 + rng.uniform(-1e-4, 1e-4, (n, 3))
-    w = side * 2.1e-3
-    walls = [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")]
-    walls += [dict(kind="plane", point=p, normal=nv, material="m") for p, nv in
-              [((0, 0, 0), (1, 0, 0)), ((w, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
-               ((0, w, 0), (0, -1, 0))]]
-    spec = PhysicsSpec(dim=3, walls=True, force_sum=force_sum)
-    return Simulation(spec, _table(restitution=0.5, friction=0.3), x=x, radius=np.full(n, 1e-3),
-                      material="m", v=rng.normal(0, 0.05, (n, 3)), walls=walls,
-                      step=StepPolicy(dt=2e-5))
 
 
 def _pressed_gas(force_sum, law="hertz_mindlin", seed=7):
@@ -55,7 +39,7 @@ def _pressed_gas(force_sum, law="hertz_mindlin", seed=7):
 
 
 def test_colouring_is_proper_and_complete():
-    sim = _dense_bed(2600, "records")
+    sim = dense_bed(2600, force_sum="records")
     sim.run(1)
     start, nbr = sim.contacts.start, sim.contacts.nbr
     first, slot, owner, partner = colour_slots(start, nbr)
@@ -76,7 +60,7 @@ def test_colour_sums_same_numbers_on_one_and_two_threads():
         pytest.skip("needs 2 threads")
     runs = []
     for threads in (1, 2):
-        sim = _dense_bed(2600, "colour")  # above the serial threshold: 2 threads run in parallel
+        sim = dense_bed(2600, force_sum="colour")  # above the serial threshold: 2 threads run in parallel
         sim.run(400, chunk=200, threads=threads)
         assert sim.counters[0] > 0  # the list was rebuilt: springs went back and forth
         runs.append((sim.particles.x.copy(), sim.particles.w.copy(), sim.contacts.state.copy(),
@@ -100,7 +84,7 @@ def _agree(a, b, steps):
 
 
 def test_colour_sums_agree_with_records_in_a_bed_with_walls():
-    a, b = _dense_bed(2600, "records"), _dense_bed(2600, "colour")
+    a, b = dense_bed(2600, force_sum="records"), dense_bed(2600, force_sum="colour")
     for sim in (a, b):
         sim._x_start = sim.particles.x.copy()
     _agree(a, b, 200)
