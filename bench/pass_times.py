@@ -38,8 +38,9 @@ import scaling  # noqa: E402  (bench/scaling.py: the builders)
 
 
 def timed_parts(parts, spec, layout, clock):
-    """An ``advance`` with the signature of engine.loop's, each pass in its own parallel loop
-    and timed into ``clock`` (name -> seconds)."""
+    """An ``advance`` and a ``start_forces`` with the signatures of engine.loop's, each pass in
+    its own parallel loop and timed into ``clock`` (name -> seconds); the colour sums' pass is
+    not among them."""
     import numpy as np
     from numba import njit, prange
 
@@ -78,7 +79,21 @@ def timed_parts(parts, spec, layout, clock):
         clock[name] = clock.get(name, 0.0) + t1 - t0
         return t1
 
-    def advance(n_steps, step, begin, prime, t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp):
+    def start_forces(t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp, last):
+        if layout.implicit:
+            raise NotImplementedError("pass_times: the implicit lubrication solve is not timed")
+        n_blocks = (P.x.shape[0] + BLOCK - 1) // BLOCK
+        if near_walls_block is not None:
+            near_walls_pass(n_blocks, P, W, R, S)
+        pair_pass(L.balanced_rows(C.start, n_blocks), n_blocks, step0, 0.0, P, C, R, A.err, S,
+                  bs, fp)
+        particle_pass(n_blocks, np.int64(0), last, t + k0 * dt, 0.0, P, C, W, B, R, A.err, S, bs,
+                      fp, 0.25 * R.skin * R.skin)
+        S.wall_part[:] = 0.0
+        if layout.audit:
+            S.audit_part[:] = 0.0
+
+    def advance(n_steps, step, begin, t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp):
         if layout.implicit:
             raise NotImplementedError("pass_times: the implicit lubrication solve is not timed")
         t0 = time.perf_counter()
@@ -90,13 +105,6 @@ def timed_parts(parts, spec, layout, clock):
             near_walls_pass(n_blocks, P, W, R, S)
         t0 = tick("list lifetime: balanced rows, near walls", t0)
         if begin:
-            if prime:
-                pair_pass(rows, n_blocks, step0, 0.0, P, C, R, err, S, bs, fp)
-                particle_pass(n_blocks, np.int64(0), prime, t + k0 * dt, 0.0, P, C, W, B, R, err,
-                              S, bs, fp, half_skin2)
-                S.wall_part[:] = 0.0
-                if layout.audit:
-                    S.audit_part[:] = 0.0
             start_pass(n_blocks, t + (k0 + 1) * dt, dt, P, B)
             t0 = tick("start", t0)
             if L._moved_beyond(P.x, P.x_ref, half_skin2):
@@ -123,7 +131,7 @@ def timed_parts(parts, spec, layout, clock):
                 break
         return step
 
-    return advance
+    return advance, start_forces
 
 
 def timed_rebuild(clock):
@@ -210,9 +218,10 @@ def run_rows(physics, n, steps, thread_counts):
     engine_runner = engine_simulation.chunk_runner(sim.spec, sim.law, sim.breakage, sim.fluid)
     parts, layout = L.chunk_parts(sim.spec, sim.law, sim.breakage, sim.fluid)
     clock = {}
-    python_runner = L.ChunkRunner(timed_parts(parts, sim.spec, layout, clock),
+    python_runner = L.ChunkRunner(*timed_parts(parts, sim.spec, layout, clock),
                                   engine_runner.collect, layout, engine_runner.rolling,
-                                  engine_runner.periodic, engine_runner.near_walls)
+                                  engine_runner.periodic, engine_runner.near_walls,
+                                  engine_runner.colour)
     engine_rebuild = L.rebuilt_contacts
     timed_rebuild(clock)
     passes_rebuild = L.rebuilt_contacts

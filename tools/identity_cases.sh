@@ -12,6 +12,8 @@ run() { PYTHONPATH="$TREE/src" "$PY" -m millsim.cli run --quiet --threads 2 "$@"
 run single_particle --set mode=drop_weight --set n_particles=10 --out "$OUT/sp.nc"
 run single_particle --set n_particles=10 --out "$OUT/sp1.nc"
 run packing --set n=500 --set settle_steps=2000 --set steps=2000 --out "$OUT/box.nc"
+run packing --set n=500 --set settle_steps=2000 --set steps=2000 --set force_sum=colour \
+    --out "$OUT/box_colour.nc"
 run packing --set container=drum --set n=500 --set settle_steps=1000 --set spinup_steps=1000 \
     --set steps=2000 --out "$OUT/drum.nc"
 for scheme in explicit implicit; do

@@ -145,8 +145,9 @@ class ChunkRunner:
     the steps since. Every time in a step is ``t + k dt`` from that same origin, so that where a
     run is cut into chunks does not change a bit of it (a time summed chunk by chunk did)."""
 
-    def __init__(self, advance, collect, layout, rolling, periodic, near_walls, colour):
-        self.advance, self.collect = advance, collect
+    def __init__(self, advance, start_forces, collect, layout, rolling, periodic, near_walls,
+                 colour):
+        self.advance, self.start_forces, self.collect = advance, start_forces, collect
         self.slot_width, self.audit, self.implicit = layout.slot_width, layout.audit, layout.implicit
         self.rolling, self.periodic, self.near_walls = rolling, periodic, near_walls
         self.colour = colour
@@ -171,8 +172,9 @@ class ChunkRunner:
         if self.colour:
             shared["force"] = np.zeros((n, 7))
         S = self._scratch(C, shared)
-        step = self.advance(n_steps, 0, True, bool(prime), t, k0, dt, step0, P, C, W, B, R, A, S,
-                            bs, fp)
+        if prime:
+            self.start_forces(t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp, True)
+        step = self.advance(n_steps, 0, True, t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp)
         self._springs_back(C, S)
         while True:
             if S.stop[0] != 0:
@@ -189,8 +191,8 @@ class ChunkRunner:
             S.rebuild[0] = 0
             S = self._scratch(C, shared)
             A.counters[0] += 1
-            step = self.advance(n_steps, step, False, False, t, k0, dt, step0, P, C, W, B, R, A,
-                                S, bs, fp)
+            step = self.advance(n_steps, step, False, t, k0, dt, step0, P, C, W, B, R, A, S, bs,
+                                fp)
             self._springs_back(C, S)
         A.counters[1] += step
         return step, C, W, events
@@ -339,13 +341,14 @@ class _Parts:
         wall_force = self._inline(_wall_force_kernel(spec, layout, contact))
         meshes = self._inline(_mesh_kernel(spec, layout, wall_force)) if spec.mesh_walls else None
         finish = self._inline(_finish_kernel(spec))
+        geometry = tuple(self._inline(fn) for fn in _pair_geometry_kernels(spec))
         if spec.force_sum == "colour":
             self.pair_block = None
             self.colour_block = self._jit(_colour_block_kernel(
-                spec, law, self._inline(_contact_kernel(spec, law, inlined=True))))
+                spec, law, self._inline(_contact_kernel(spec, law, inlined=True)), geometry))
         else:
             self.pair_block = self._jit(_pair_block_kernel(
-                self._inline(_pair_row_kernel(spec, law, brk, flu, layout, contact))))
+                self._inline(_pair_row_kernel(spec, law, brk, flu, layout, contact, geometry))))
             self.colour_block = None
         self.particle_block = self._jit(_particle_block_kernel(
             spec, brk, layout,
@@ -359,6 +362,9 @@ class _Parts:
         if layout.implicit:  # the implicit lubrication solve (engine.implicit); else not compiled
             self.lub_blocks = tuple(self._jit(fn) for fn in lub_kernels(spec, layout, BLOCK))
             self.lub_finish_block = self._jit(_lub_finish_kernel(spec, layout, finish))
+            self.lub_solve = self._lub_solver()
+        else:
+            self.lub_solve = self.lub_finish_block = None
         self.runner = self._runner(spec, brk, layout)
 
     def _inline(self, fn):
@@ -381,33 +387,94 @@ class _Parts:
                                f"{self.key}|{fn.__name__}")
 
     def _runner(self, spec, brk, layout):
-        ROLLING, PERIODIC, TRANSLATING = spec.rolling_friction, spec.periodic, spec.translating_walls
-        MESHES = spec.mesh_walls
-        AUDIT, IMPLICIT = layout.audit, layout.implicit
         NEAR_WALLS = near_walls(spec, layout)
         COLOUR = spec.force_sum == "colour"
+        return ChunkRunner(self._advance(spec, layout), self._start_forces(spec, layout),
+                           brk.collect, layout, spec.rolling_friction, spec.periodic, NEAR_WALLS,
+                           COLOUR)
+
+    # The steps of one neighbour list's lifetime (``_advance``) and the forces of the start state
+    # (``_start_forces``), each with its parallel loops in one function. (Not inside one compiled
+    # chunk loop that also rebuilds the list: numba links every callee's code into its caller's
+    # and optimises it again at each level, so a level less is compile time less,
+    # docs/results/restructure.md; and parfor lowering needs one definition of each bundle it
+    # hands to the threads, which a rebuild redefines.) The block index is cast: numba types a
+    # prange index int64 when it types the function and uint64 in the parallel kernel, and each
+    # type would compile the block kernel again. No bundle is opened inside a prange body (numba
+    # 0.68 loses writes made through a named tuple's attribute there), so err and the scratch
+    # flags are taken out first.
+    def _start_forces(self, spec, layout):
+        TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
+        AUDIT, IMPLICIT = layout.audit, layout.implicit
+        NEAR_WALLS, COLOUR = near_walls(spec, layout), spec.force_sum == "colour"
+        near_walls_block, pair_block = self.near_walls_block, self.pair_block
+        colour_block, particle_block = self.colour_block, self.particle_block
+        lub_solve, lub_finish_block = self.lub_solve, self.lub_finish_block
+
+        def start_forces(t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp, last):
+            """The forces of the start state at t + k0 dt (a run that starts in contact or inside
+            a fluid film): the first drift uses them. Evaluated with dt = 0, which advances no
+            spring; ``last`` is True (passed in: a literal would compile another particle pass)."""
+            n_blocks = (P.x.shape[0] + BLOCK - 1) // BLOCK
+            half_skin2 = 0.25 * R.skin * R.skin
+            err, counters = A.err, A.counters
+            wall_part, audit_part = S.wall_part, S.audit_part
+            if NEAR_WALLS:
+                for blk in prange(n_blocks):
+                    near_walls_block(np.int64(blk), P, W, R, S)
+            if COLOUR:  # colour by colour; a colour's slots share no particle
+                colours = S.colour_start
+                for c in range(colours.shape[0] - 1):
+                    lo, hi = colours[c], colours[c + 1]
+                    for b in prange((hi - lo + BLOCK - 1) // BLOCK):
+                        colour_block(lo + b * BLOCK, min(hi, lo + (b + 1) * BLOCK), step0, 0.0, P,
+                                     R, err, S)
+            else:
+                rows = balanced_rows(C.start, n_blocks)
+                for b in prange(n_blocks):
+                    pair_block(rows[b], rows[b + 1], step0, 0.0, P, C, R, err, S, bs, fp)
+            t_start = t + k0 * dt
+            if TRANSLATING:
+                place_walls(W.table, t_start)
+            if MESHES:
+                place_meshes(W.table, t_start)
+            for blk in prange(n_blocks):
+                particle_block(np.int64(blk), np.int64(0), last, t_start, 0.0, P, C, W, B, R, err,
+                               S, bs, fp, half_skin2)
+            if IMPLICIT:
+                # the first kick starts at the state: half a step of lubrication, so that the
+                # first drift moves with the implicit half-step velocity (lub_solve)
+                lub_solve(n_blocks, 0.0, 0.5 * dt, False, P, C, R, S, fp, counters)
+                for blk in prange(n_blocks):
+                    lub_finish_block(np.int64(blk), np.int64(0), last, t_start, 0.0, 0.5 * dt, P,
+                                     C, W, B, R, err, S, half_skin2)
+            for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
+                power = 0.0
+                for blk in range(n_blocks):
+                    power += audit_part[blk, a]
+                    audit_part[blk, a] = 0.0
+                A.dissipation[N_AUDIT + a] = power
+            for blk in range(wall_part.shape[0]):
+                for k in range(wall_part.shape[1]):
+                    for c in range(wall_part.shape[2]):
+                        wall_part[blk, k, c] = 0.0
+
+        return self._parallel(start_forces)
+
+    def _advance(self, spec, layout):
+        TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
+        IMPLICIT = layout.implicit
+        NEAR_WALLS, COLOUR = near_walls(spec, layout), spec.force_sum == "colour"
         near_walls_block = self.near_walls_block
         pair_block, particle_block = self.pair_block, self.particle_block
         colour_block = self.colour_block
         start_block, reductions = self.start_block, self.reductions
-        lub_solve = lub_finish_block = None
-        if IMPLICIT:
-            lub_solve, lub_finish_block = self._lub_solver(), self.lub_finish_block
+        lub_solve, lub_finish_block = self.lub_solve, self.lub_finish_block
 
-        # The steps of one neighbour list's lifetime, with the parallel loops in this function.
-        # (Not inside one compiled chunk loop that also rebuilds the list: numba links every
-        # callee's code into its caller's and optimises it again at each level, so a level less
-        # is compile time less, docs/results/restructure.md; and parfor lowering needs one
-        # definition of each bundle it hands to the threads, which a rebuild redefines.)
-        # The block index is cast: numba types a prange index int64 when it types the function
-        # and uint64 in the parallel kernel, and each type would compile the block kernel again.
-        # No bundle is opened inside a prange body (numba 0.68 loses writes made through a named
-        # tuple's attribute there), so err and the scratch flags are taken out first.
-        def advance(n_steps, step, begin, prime, t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp):
+        def advance(n_steps, step, begin, t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp):
             """Steps from ``step`` until n_steps, a breakage decision, a guard, or a due list
-            rebuild (S.rebuild set); returns the steps done. ``begin``: the chunk's first call
-            (``prime``: evaluate the forces of the start state first). Local step k ends at
-            t + (k0 + k + 1) dt (see ChunkRunner)."""
+            rebuild (S.rebuild set); returns the steps done. ``begin``: the chunk's first call.
+            Local step k ends at t + (k0 + k + 1) dt (see ChunkRunner)."""
             n_blocks = (P.x.shape[0] + BLOCK - 1) // BLOCK
             half_skin2 = 0.25 * R.skin * R.skin
             err, counters = A.err, A.counters
@@ -420,46 +487,6 @@ class _Parts:
                 for blk in prange(n_blocks):
                     near_walls_block(np.int64(blk), P, W, R, S)
             if begin:
-                if prime:
-                    # The forces of the start state (a run that starts in contact or inside a
-                    # fluid film): the first drift uses them. dt = 0 evaluates without advancing
-                    # springs; the particle pass takes last = True (run-time values, not
-                    # literals: a literal argument compiles another variant).
-                    if COLOUR:  # colour by colour; a colour's slots share no particle
-                        for c in range(colours.shape[0] - 1):
-                            lo, hi = colours[c], colours[c + 1]
-                            for b in prange((hi - lo + BLOCK - 1) // BLOCK):
-                                colour_block(lo + b * BLOCK, min(hi, lo + (b + 1) * BLOCK), step0,
-                                             0.0, P, R, err, S)
-                    else:
-                        for b in prange(n_blocks):
-                            pair_block(rows[b], rows[b + 1], step0, 0.0, P, C, R, err, S, bs, fp)
-                    t_start = t + k0 * dt
-                    if TRANSLATING:
-                        place_walls(W.table, t_start)
-                    if MESHES:
-                        place_meshes(W.table, t_start)
-                    for blk in prange(n_blocks):
-                        particle_block(np.int64(blk), np.int64(0), prime, t_start, 0.0, P, C, W,
-                                       B, R, err, S, bs, fp, half_skin2)
-                    if IMPLICIT:
-                        # the first kick starts at the state: half a step of lubrication, so that
-                        # the first drift moves with the implicit half-step velocity (lub_solve)
-                        lub_solve(n_blocks, 0.0, 0.5 * dt, False, P, C, R, S, fp, counters)
-                        tau = 0.5 * dt
-                        for blk in prange(n_blocks):
-                            lub_finish_block(np.int64(blk), np.int64(0), prime, t_start, 0.0,
-                                             tau, P, C, W, B, R, err, S, half_skin2)
-                    for a in range(N_AUDIT if AUDIT else 0):  # the audit's power at t (trapezoid)
-                        power = 0.0
-                        for blk in range(n_blocks):
-                            power += audit_part[blk, a]
-                            audit_part[blk, a] = 0.0
-                        A.dissipation[N_AUDIT + a] = power
-                    for blk in range(wall_part.shape[0]):
-                        for k in range(wall_part.shape[1]):
-                            for c in range(wall_part.shape[2]):
-                                wall_part[blk, k, c] = 0.0
                 t_next = t + (k0 + 1) * dt
                 for blk in prange(n_blocks):  # start the first step, bodies at its end
                     start_block(np.int64(blk), t_next, dt, P, B)
@@ -473,7 +500,7 @@ class _Parts:
             warm = False  # implicit lubrication: impulses of the last step kept in the rows
             while step < n_steps:
                 step_now = step0 + step
-                if COLOUR:
+                if COLOUR:  # colour by colour; a colour's slots share no particle
                     for c in range(colours.shape[0] - 1):
                         lo, hi = colours[c], colours[c + 1]
                         for b in prange((hi - lo + BLOCK - 1) // BLOCK):
@@ -517,8 +544,7 @@ class _Parts:
                     break
             return step
 
-        advance = self._parallel(advance)
-        return ChunkRunner(advance, brk.collect, layout, ROLLING, PERIODIC, NEAR_WALLS, COLOUR)
+        return self._parallel(advance)
 
     def _lub_solver(self):
         """The implicit lubrication solve (engine.implicit); ``advance``'s finish pass applies it.
@@ -663,9 +689,50 @@ def _pair_block_kernel(pair_row):
     return pair_block
 
 
-def _pair_row_kernel(spec, law, brk, flu, layout, contact):
+def _pair_geometry_kernels(spec):
+    """The geometry of a pair, shared by the pair pass and the colour pass: ``separation``
+    (x_i - x_j, the minimum image in a periodic box), ``contact_normal`` (unit normal and
+    overlap) and ``contact_velocity`` (lever arms, relative velocity of the contact points,
+    effective mass). The callers test the overlap guard between the last two: a branch bounds
+    where LLVM fuses multiply-adds, so moving it would change the rounding."""
+    PERIODIC = spec.periodic
+
+    def separation(i, j, x, R):
+        d0 = x[i, 0] - x[j, 0]
+        d1 = x[i, 1] - x[j, 1]
+        d2 = x[i, 2] - x[j, 2]
+        if PERIODIC:
+            d0 = min_image(d0, 0, R.box_len)
+            d1 = min_image(d1, 1, R.box_len)
+            d2 = min_image(d2, 2, R.box_len)
+        return d0, d1, d2
+
+    def contact_normal(d0, d1, d2, dist2, rsum):
+        dist = math.sqrt(dist2)
+        inv = 1.0 / dist
+        return d0 * inv, d1 * inv, d2 * inv, rsum - dist
+
+    def contact_velocity(i, j, n0, n1, n2, xi, P):
+        # Relative velocity of i's contact point w.r.t. j's: dv - (ai wi + aj wj) x n,
+        # lever arms a = r - xi/2 (the contact point sits mid-overlap).
+        v, w = P.v, P.w
+        ai = P.radius[i] - 0.5 * xi
+        aj = P.radius[j] - 0.5 * xi
+        s0 = ai * w[i, 0] + aj * w[j, 0]
+        s1 = ai * w[i, 1] + aj * w[j, 1]
+        s2 = ai * w[i, 2] + aj * w[j, 2]
+        vr0 = v[i, 0] - v[j, 0] - (s1 * n2 - s2 * n1)
+        vr1 = v[i, 1] - v[j, 1] - (s2 * n0 - s0 * n2)
+        vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
+        m_eff = 1.0 / (P.inv_mass[i] + P.inv_mass[j])
+        return ai, aj, vr0, vr1, vr2, m_eff
+
+    return separation, contact_normal, contact_velocity
+
+
+def _pair_row_kernel(spec, law, brk, flu, layout, contact, geometry):
     """Pair pass for the slots of particle i."""
-    PERIODIC, ROLLING, AUDIT = spec.periodic, spec.rolling_friction, layout.audit
+    ROLLING, AUDIT = spec.rolling_friction, layout.audit
     IMPLICIT = layout.implicit
     SPRING = law.spring_columns
     SLOT, COL_BRK, COL_T = layout.slot_width, SLOT_BASE, layout.slot_fluid
@@ -675,18 +742,13 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
     reference, apart_hook = brk.pair_reference, brk.pair_apart
     override, loaded = brk.pair_override, brk.pair_loaded
     pair_fluid = flu.pair_fluid
+    separation, contact_normal, contact_velocity = geometry
 
     def pair_row(i, step, dt, P, start, nbr, state, R, err, out, proll, bs, fp, stop, rows):
         x, v, w, radius = P.x, P.v, P.w, P.radius
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            d2 = x[i, 2] - x[j, 2]
-            if PERIODIC:
-                d0 = min_image(d0, 0, R.box_len)
-                d1 = min_image(d1, 1, R.box_len)
-                d2 = min_image(d2, 2, R.box_len)
+            d0, d1, d2 = separation(i, j, x, R)
             rsum = radius[i] + radius[j]
             dist2 = d0 * d0 + d1 * d1 + d2 * d2
             # Fragments start deeply overlapped by construction: only the overlap beyond their
@@ -710,25 +772,12 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
                 apart_hook(bs, state, k, BASE, o, COL_BRK, step, i, j, radius, P.body, rsum,
                            dist2, rsum - dist - xi_ref, stop)
                 continue
-            dist = math.sqrt(dist2)
-            inv = 1.0 / dist
-            n0, n1, n2 = d0 * inv, d1 * inv, d2 * inv
-            xi = rsum - dist
+            n0, n1, n2, xi = contact_normal(d0, d1, d2, dist2, rsum)
             ri, rj = radius[i], radius[j]
             xi_c = xi - xi_ref  # the overlap the force and the guard see
             if xi_c > R.max_overlap * min(ri, rj) and err[0] == 0:
                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
-            # Relative velocity of i's contact point w.r.t. j's: dv - (ai wi + aj wj) x n,
-            # lever arms a = r - xi/2 (the contact point sits mid-overlap).
-            ai = ri - 0.5 * xi
-            aj = rj - 0.5 * xi
-            s0 = ai * w[i, 0] + aj * w[j, 0]
-            s1 = ai * w[i, 1] + aj * w[j, 1]
-            s2 = ai * w[i, 2] + aj * w[j, 2]
-            vr0 = v[i, 0] - v[j, 0] - (s1 * n2 - s2 * n1)
-            vr1 = v[i, 1] - v[j, 1] - (s2 * n0 - s0 * n2)
-            vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
-            m_eff = 1.0 / (P.inv_mass[i] + P.inv_mass[j])
+            ai, aj, vr0, vr1, vr2, m_eff = contact_velocity(i, j, n0, n1, n2, xi, P)
             p = R.pair_params[P.material[i], P.material[j]]
             fixed, fn = override(bs, state, k, BASE, p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff)
             if fixed:
@@ -775,49 +824,33 @@ def _pair_row_kernel(spec, law, brk, flu, layout, contact):
     return pair_row
 
 
-def _colour_block_kernel(spec, law, contact):
+def _colour_block_kernel(spec, law, contact, geometry):
     """Colour sums (PhysicsSpec.force_sum): the contacts at places lo to hi - 1 of the colour
     order, each added straight into both particles' sums (Scratch.force). The places of one
     colour share no particle, so threads never add into the same sum, and each sum is taken
     colour by colour whatever the thread count. The same contact as ``_pair_row_kernel``'s for
     a run without breakage model or fluid."""
-    PERIODIC, ROLLING, PRESSURE = spec.periodic, spec.rolling_friction, spec.normal_force_sum
+    ROLLING, PRESSURE = spec.rolling_friction, spec.normal_force_sum
     SPRING = law.spring_columns
+    separation, contact_normal, contact_velocity = geometry
 
     def colour_block(lo, hi, step, dt, P, R, err, S):
-        x, v, w, radius = P.x, P.v, P.w, P.radius
+        x, w, radius = P.x, P.w, P.radius
         owner, partner, state, force = S.colour_owner, S.colour_partner, S.colour_state, S.force
         for q in range(lo, hi):
             i, j = owner[q], partner[q]
-            d0 = x[i, 0] - x[j, 0]
-            d1 = x[i, 1] - x[j, 1]
-            d2 = x[i, 2] - x[j, 2]
-            if PERIODIC:
-                d0 = min_image(d0, 0, R.box_len)
-                d1 = min_image(d1, 1, R.box_len)
-                d2 = min_image(d2, 2, R.box_len)
+            d0, d1, d2 = separation(i, j, x, R)
             rsum = radius[i] + radius[j]
             dist2 = d0 * d0 + d1 * d1 + d2 * d2
             if dist2 >= rsum * rsum:
                 for c in range(SPRING):
                     state[q, c] = 0.0
                 continue
-            dist = math.sqrt(dist2)
-            inv = 1.0 / dist
-            n0, n1, n2 = d0 * inv, d1 * inv, d2 * inv
-            xi = rsum - dist
+            n0, n1, n2, xi = contact_normal(d0, d1, d2, dist2, rsum)
             ri, rj = radius[i], radius[j]
             if xi > R.max_overlap * min(ri, rj) and err[0] == 0:
                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, j
-            ai = ri - 0.5 * xi
-            aj = rj - 0.5 * xi
-            s0 = ai * w[i, 0] + aj * w[j, 0]
-            s1 = ai * w[i, 1] + aj * w[j, 1]
-            s2 = ai * w[i, 2] + aj * w[j, 2]
-            vr0 = v[i, 0] - v[j, 0] - (s1 * n2 - s2 * n1)
-            vr1 = v[i, 1] - v[j, 1] - (s2 * n0 - s0 * n2)
-            vr2 = v[i, 2] - v[j, 2] - (s0 * n1 - s1 * n0)
-            m_eff = 1.0 / (P.inv_mass[i] + P.inv_mass[j])
+            ai, aj, vr0, vr1, vr2, m_eff = contact_velocity(i, j, n0, n1, n2, xi, P)
             p = R.pair_params[P.material[i], P.material[j]]
             fn, f0, f1, f2, fn_el, mr = contact(p, xi, n0, n1, n2, vr0, vr1, vr2, m_eff,
                                                 ri * rj / rsum, state, q, dt)
