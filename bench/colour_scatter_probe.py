@@ -5,7 +5,7 @@
 
 Stand-alone, on the engine's own Hertz-Mindlin law, the engine's neighbour list and the box's
 settled state (``bench/engine_throughput.py`` leaves it in ``<workdir>/millsim_box_state.csv``).
-Three ways to turn the half list's contacts into particle forces, each followed by the same
+Ways to turn the half list's contacts into particle forces, each followed by the same
 velocity-Verlet step with gravity (no walls: the few hundred microseconds timed barely move the
 bed):
 
@@ -21,6 +21,10 @@ bed):
   thread count, without the records.
 - ``colour_index``: the same, the springs left in the list's slot order (reached through each
   place's slot index) instead of copied into colour order.
+- ``colour_packed``: ``colour_scatter`` with each particle's data (position, velocity, spin,
+  radius, inverse mass and inertia) in one 128-byte row and its force and torque sums in one
+  64-byte row, both aligned to cache lines: three lines per particle of a contact, where the
+  separate arrays touch up to nine.
 
 Variants alternate within each repeat; compile time excluded. Prints particle-steps/s per variant
 (median of the repeats), the colouring's size, and how far the variants' states are apart after
@@ -252,7 +256,88 @@ def make_kernels(force, clip):
             for b in prange((n + 255) // 256):
                 finish_block(b, dt, x, v, w, inv_mass, inv_inertia, F, T)
 
-    return records, row_scatter, colour_scatter, colour_index
+    @njit(inline="always", fastmath=FAST)
+    def packed_scatter(i, j, k, H, pp, state, dt, FT):
+        # H[i]: x 0-2, v 3-5, w 6-8, radius 9, 1/mass 10, 1/inertia 11 (128 bytes, line aligned)
+        d0 = H[i, 0] - H[j, 0]
+        d1 = H[i, 1] - H[j, 1]
+        d2 = H[i, 2] - H[j, 2]
+        rsum = H[i, 9] + H[j, 9]
+        dist2 = d0 * d0 + d1 * d1 + d2 * d2
+        if dist2 >= rsum * rsum:
+            state[k, 0] = 0.0
+            state[k, 1] = 0.0
+            state[k, 2] = 0.0
+            return
+        dist = math.sqrt(dist2)
+        inv = 1.0 / dist
+        n0, n1, n2 = d0 * inv, d1 * inv, d2 * inv
+        xi = rsum - dist
+        ri, rj = H[i, 9], H[j, 9]
+        ai = ri - 0.5 * xi
+        aj = rj - 0.5 * xi
+        s0 = ai * H[i, 6] + aj * H[j, 6]
+        s1 = ai * H[i, 7] + aj * H[j, 7]
+        s2 = ai * H[i, 8] + aj * H[j, 8]
+        vr0 = H[i, 3] - H[j, 3] - (s1 * n2 - s2 * n1)
+        vr1 = H[i, 4] - H[j, 4] - (s2 * n0 - s0 * n2)
+        vr2 = H[i, 5] - H[j, 5] - (s0 * n1 - s1 * n0)
+        m_eff = 1.0 / (H[i, 10] + H[j, 10])
+        fn, f0, f1, f2, fn_el = force(pp, xi, n0, n1, n2, vr0, vr1, vr2, m_eff, ri * rj / rsum,
+                                      clip, state, k, dt)
+        g0 = fn * n0 + f0
+        g1 = fn * n1 + f1
+        g2 = fn * n2 + f2
+        c0 = n1 * f2 - n2 * f1
+        c1 = n2 * f0 - n0 * f2
+        c2 = n0 * f1 - n1 * f0
+        FT[i, 0] += g0
+        FT[i, 1] += g1
+        FT[i, 2] += g2
+        FT[j, 0] -= g0
+        FT[j, 1] -= g1
+        FT[j, 2] -= g2
+        FT[i, 3] -= ai * c0
+        FT[i, 4] -= ai * c1
+        FT[i, 5] -= ai * c2
+        FT[j, 3] -= aj * c0
+        FT[j, 4] -= aj * c1
+        FT[j, 5] -= aj * c2
+
+    @njit(parallel=PRANGE_ONLY, fastmath=FAST)
+    def colour_packed(steps, dt, H, pp, ci, cj, cstart, state, FT):
+        # colour_scatter with each particle's data in one 128-byte row and its sums in one
+        # 64-byte row: two cache lines to read and one to write per particle of a contact
+        n = H.shape[0]
+        chunk = 256
+        for _ in range(steps):
+            for c in range(cstart.shape[0] - 1):
+                lo, hi = cstart[c], cstart[c + 1]
+                for b in prange((hi - lo + chunk - 1) // chunk):
+                    for k in range(lo + b * chunk, min(hi, lo + (b + 1) * chunk)):
+                        packed_scatter(ci[k], cj[k], k, H, pp, state, dt, FT)
+            for b in prange((n + 255) // 256):
+                for i in range(b * 256, min(n, (b + 1) * 256)):
+                    H[i, 3] += dt * FT[i, 0] * H[i, 10]
+                    H[i, 4] += dt * FT[i, 1] * H[i, 10]
+                    H[i, 5] += dt * (FT[i, 2] * H[i, 10] + G)
+                    H[i, 6] += dt * FT[i, 3] * H[i, 11]
+                    H[i, 7] += dt * FT[i, 4] * H[i, 11]
+                    H[i, 8] += dt * FT[i, 5] * H[i, 11]
+                    H[i, 0] += dt * H[i, 3]
+                    H[i, 1] += dt * H[i, 4]
+                    H[i, 2] += dt * H[i, 5]
+                    for a in range(6):
+                        FT[i, a] = 0.0
+
+    return records, row_scatter, colour_scatter, colour_index, colour_packed
+
+
+def aligned_rows(n, width):
+    """An (n, width) float64 array whose rows start on 64-byte boundaries (width a multiple of 8)."""
+    raw = np.zeros(n * width + 8)
+    skip = (-raw.ctypes.data % 64) // 8
+    return raw[skip:skip + n * width].reshape(n, width)
 
 
 def main():
@@ -270,7 +355,8 @@ def main():
     if len(np.unique(P.material)) != 1:
         raise SystemExit("the probe takes one material")
     pp = np.ascontiguousarray(sim.pair_params[0, 0])
-    records, row_scatter, colour_scatter, colour_index = make_kernels(sim.law.force, sim.spec.clip_normal)
+    records, row_scatter, colour_scatter, colour_index, colour_packed = make_kernels(
+        sim.law.force, sim.spec.clip_normal)
     start, nbr = C.start, C.nbr
     state0 = np.ascontiguousarray(C.state[:, :3])
     colour = colour_slots(start, nbr, n)
@@ -307,6 +393,13 @@ def main():
             args_ = (steps, sim.dt, x, v, w, P.radius, P.inv_mass, P.inv_inertia, pp, ci, cj,
                      order.astype(np.int64), cstart, st, F, T)
             fn = colour_index
+        elif name == "colour_packed":
+            st = state0[order].copy()
+            H = aligned_rows(n, 16)
+            H[:, 0:3], H[:, 3:6], H[:, 6:9] = x, v, w
+            H[:, 9], H[:, 10], H[:, 11] = P.radius, P.inv_mass, P.inv_inertia
+            args_ = (steps, sim.dt, H, pp, ci, cj, cstart, st, aligned_rows(n, 8))
+            fn = colour_packed
         else:
             st = state0[order].copy()
             args_ = (steps, sim.dt, x, v, w, P.radius, P.inv_mass, P.inv_inertia, pp, ci, cj,
@@ -314,10 +407,14 @@ def main():
             fn = colour_scatter
         t0 = time.perf_counter()
         fn(*args_)
+        if name == "colour_packed":
+            H = args_[2]
+            x, v, w = H[:, 0:3].copy(), H[:, 3:6].copy(), H[:, 6:9].copy()
         return time.perf_counter() - t0, (x, v, w)
 
     numba.set_num_threads(n_threads)
-    names = ["records", "colour_scatter", "colour_index"] + (["row_scatter"] if n_threads == 1 else [])
+    names = ["records", "colour_scatter", "colour_index", "colour_packed"] + (
+        ["row_scatter"] if n_threads == 1 else [])
     for name in names:
         run(name, 2)  # compile
     rates = {name: [] for name in names}

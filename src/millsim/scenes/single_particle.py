@@ -411,22 +411,30 @@ class SingleParticleCase(Case):
         return (k - 1 + within) / self.impacts, f"impact {k}, {int((self.books.broken_at > 0).sum())} broken"
 
     def finish(self):
-        values, s, sim, books = self.values, self.s, self.sim, self.books
-        n, mode, replacing = values["n_particles"], self.mode, self.replacing
-        impacts, converged, per_impact = self.impacts, self.converged, self.per_impact
-        absorbed_first, e_initial = self.absorbed_first, self.e_initial
-        broken = books.broken_at > 0
+        n, s = self.values["n_particles"], self.s
+        broken = self.books.broken_at > 0
+        data = self._particle_outputs(broken)
+        data.update(self._summary_outputs(broken))
+        ev = self._event_outputs(data)
+        coords = {"particle": ("particle", np.arange(n), {"units": "1", "long_name": "particle index"}),
+                  "impact": ("impact", np.arange(1, len(self.converged) + 1),
+                             {"units": "1", "long_name": "impact number"}),
+                  "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
+        if self.replacing:
+            self._product_outputs(broken, data, coords)
+        extra = {"case_seed": s.case_seed, "contact_time_s": s.t_contact, "gravity": "off",
+                 "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"}
+        return data, coords, extra
+
+    def _particle_outputs(self, broken):
+        """Per particle: whether and when it broke, its fracture energies and absorbed energy."""
+        s, books, absorbed_first = self.s, self.books, self.absorbed_first
         first = broken & (books.broken_at == 1)
         absorbed_first[first] = books.absorbed[first]
-        e_final = np.full(n, np.nan)
+        e_final = np.full(self.values["n_particles"], np.nan)
         alive = (s.gen == 0) & (s.ids >= 0)
-        e_final[s.ids[alive]] = sim.breakage.e_frac[alive]
-
-        d0 = values["diameter"]
-        nb = int(broken.sum())
-        lo, hi = binomial_interval(nb, n)
-        analytic = float(tv.breakage_probability(s.mat, d0, s.specific_energy, s.share))
-        data = {
+        e_final[s.ids[alive]] = self.sim.breakage.e_frac[alive]
+        return {
             "particle_broken": (
                 "particle", broken.astype(np.int8),
                 {"units": "1", "long_name": "broke (1) or not (0)"}),
@@ -434,7 +442,7 @@ class SingleParticleCase(Case):
                 "particle", books.broken_at,
                 {"units": "1", "long_name": "impact at which it broke (0: never)"}),
             "particle_fracture_energy_initial": (
-                "particle", e_initial,
+                "particle", self.e_initial,
                 {"units": "J kg-1",
                  "long_name": "fracture energy drawn at creation (absorbed basis)"}),
             "particle_fracture_energy_final": (
@@ -453,6 +461,16 @@ class SingleParticleCase(Case):
             "particle_t10_primary": (
                 "particle", books.t10_primary,
                 {"units": "%", "long_name": "t10' of its primary breakage event (eq 8)"}),
+        }
+
+    def _summary_outputs(self, broken):
+        """The broken fraction with its confidence interval against the analytic probability,
+        per impact for repeated impacts, and the inputs it was drawn at."""
+        s, n, d0 = self.s, self.values["n_particles"], self.values["diameter"]
+        nb = int(broken.sum())
+        lo, hi = binomial_interval(nb, n)
+        analytic = float(tv.breakage_probability(s.mat, d0, s.specific_energy, s.share))
+        data = {
             "n_particles": ((), n, {"units": "1", "long_name": "particles stressed"}),
             "n_broken": ((), nb, {"units": "1", "long_name": "particles broken"}),
             "broken_fraction": ((), nb / n, {"units": "1", "long_name": "fraction broken"}),
@@ -476,11 +494,11 @@ class SingleParticleCase(Case):
                 {"units": "J kg-1", "long_name": "E50 (absorbed basis, eq 3)"}),
             "gamma_used": ((), s.mat.gamma, {"units": "1", "long_name": "damage coefficient used"}),
             "converged": (
-                ("impact",), np.array(converged, np.int8),
+                ("impact",), np.array(self.converged, np.int8),
                 {"units": "1", "long_name": "impact ended before the time cap"}),
         }
-        if mode == "repeated":
-            cum = np.array(per_impact, float)
+        if self.mode == "repeated":
+            cum = np.array(self.per_impact, float)
             ilo, ihi = binomial_interval(cum, n)
             data.update(
                 impact_broken_fraction=(
@@ -492,7 +510,7 @@ class SingleParticleCase(Case):
                     ("impact",), ihi, {"units": "1", "long_name": "95% Clopper-Pearson upper"}),
                 impact_broken_fraction_analytic=(
                     ("impact",),
-                    tv.repeated_impact_broken(s.mat, d0, s.specific_energy, s.share, impacts),
+                    tv.repeated_impact_broken(s.mat, d0, s.specific_energy, s.share, self.impacts),
                     {"units": "1", "long_name": "damage model, eqs 1-6"}),
             )
             analytic = float(data["impact_broken_fraction_analytic"][1][-1])
@@ -500,7 +518,11 @@ class SingleParticleCase(Case):
             (), analytic,
             {"units": "1",
              "long_name": "analytic probability (eqs 1-3; after all impacts for repeated)"})
-        ev = np.array(books.events, dtype=float).reshape(-1, 10)
+        return data
+
+    def _event_outputs(self, data):
+        """One row per breakage event into ``data``; returns the events' table."""
+        ev = np.array(self.books.events, dtype=float).reshape(-1, 10)
         for col, (name, unit, long) in enumerate([
                 ("event_time", "s", "time of breakage"), ("event_particle", "1", "original particle"),
                 ("event_generation", "1", "0: original, 1: its progeny, ..."),
@@ -513,17 +535,9 @@ class SingleParticleCase(Case):
                 ("event_fines_mass", "kg", "unresolved fines (dummy class) mass")]):
             data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
         data["t10_primary_model"] = (
-            (), tavares.t10_min(s.mat),
+            (), tavares.t10_min(self.s.mat),
             {"units": "%", "long_name": "eq 9: t10' at breakage at the fracture energy"})
-        coords = {"particle": ("particle", np.arange(n), {"units": "1", "long_name": "particle index"}),
-                  "impact": ("impact", np.arange(1, len(converged) + 1), {"units": "1", "long_name": "impact number"}),
-                  "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
-        if replacing:
-            self._product_outputs(broken, data, coords)
-        extra = {"case_seed": s.case_seed, "contact_time_s": s.t_contact, "gravity": "off",
-                 "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"}
-        return data, coords, extra
-
+        return ev
 
     def _product_outputs(self, broken, data, coords):
         """The progeny of the broken particles against the model: t10 and product passing (with
