@@ -170,9 +170,9 @@ def timed_scratch(clock):
 
     untimed = L.ChunkRunner._scratch
 
-    def scratch(self, C, shared):
+    def scratch(self, C, shared, P, R):
         t0 = time.perf_counter()
-        S = untimed(self, C, shared)
+        S = untimed(self, C, shared, P, R)
         clock["list lifetime: scratch arrays"] = (
             clock.get("list lifetime: scratch arrays", 0.0) + time.perf_counter() - t0)
         return S

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
-from millsim.engine.loop import colour_slots
+from millsim.engine.loop import colour_slots, touching_slots
 from millsim.models import Interaction, Material, MaterialTable
 from millsim.models.lubrication import Lubrication
 
@@ -38,18 +38,35 @@ def _pressed_gas(force_sum, law="hertz_mindlin", seed=7):
                       step=StepPolicy(dt=1e-6))
 
 
-def test_colouring_is_proper_and_complete():
-    sim = dense_bed(2600, force_sum="records")
+@pytest.mark.parametrize("bed", ["walls", "periodic"])
+def test_colouring_is_proper_and_complete(bed):
+    sim = dense_bed(2600, force_sum="records") if bed == "walls" else _pressed_gas("records")
     sim.run(1)
     start, nbr = sim.contacts.start, sim.contacts.nbr
-    first, slot, owner, partner = colour_slots(start, nbr)
+    p = sim.particles
+    row_of = np.repeat(np.arange(len(start) - 1), np.diff(start))
+    touching = touching_slots(start, nbr, p.x, p.radius, sim.box_len)
+    # against numpy's minimum image along periodic axes
+    d = p.x[row_of] - p.x[nbr]
+    periodic = sim.box_len > 0
+    d[:, periodic] -= sim.box_len[periodic] * np.round(d[:, periodic] / sim.box_len[periodic])
+    overlap = (d ** 2).sum(axis=1) < (p.radius[row_of] + p.radius[nbr]) ** 2
+    assert np.array_equal(touching, overlap) and 0 < touching.sum() < len(nbr)
+    if bed == "periodic":  # pairs touching across the box's faces are among them
+        raw = ((p.x[row_of] - p.x[nbr]) ** 2).sum(axis=1)
+        assert (touching & (raw > (p.radius[row_of] + p.radius[nbr]) ** 2)).any()
+    first, slot, owner, partner = colour_slots(start, nbr, touching)
     assert first[0] == 0 and first[-1] == len(nbr) and (np.diff(first) > 0).all()
     assert np.array_equal(np.sort(slot), np.arange(len(nbr)))  # every slot once
-    row_of = np.repeat(np.arange(len(start) - 1), np.diff(start))
     assert np.array_equal(owner, row_of[slot]) and np.array_equal(partner, nbr[slot])
     for c in range(len(first) - 1):  # no particle twice in a colour
         ends = np.concatenate([owner[first[c]:first[c + 1]], partner[first[c]:first[c + 1]]])
         assert len(np.unique(ends)) == len(ends), c
+        # touching slots first, then the apart ones, each in slot order
+        group = slot[first[c]:first[c + 1]]
+        flags = touching[group]
+        assert (np.diff(flags.astype(int)) <= 0).all(), c
+        assert (np.diff(group[flags]) > 0).all() and (np.diff(group[~flags]) > 0).all(), c
     # greedy colouring needs at most (deg i + deg j - 1) colours over any slot
     degree = np.bincount(np.concatenate([row_of, nbr]), minlength=len(start) - 1)
     assert len(first) - 1 <= 2 * degree.max() - 1
