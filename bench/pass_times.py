@@ -14,7 +14,7 @@ at each thread count (``numba.set_num_threads``):
    parallel loop (``passes``), so that each pass is timed alone: the pair pass, the particle
    pass, the serial reductions, the rebuild's parts (``neighbours.build_verlet``: the bounding
    box, size levels and cell binning timed apart on the same positions), and the per-list-lifetime
-   work (scratch arrays, ``balanced_rows``, the near-wall pass). A pass that takes the same
+   work (scratch arrays with the pair pass's order, the near-wall pass). A pass that takes the same
    share at every thread count scales with the loop; one whose share grows is what stops it.
 
 The Python-driven steps cost one call per pass more than the compiled loop (tens of
@@ -53,9 +53,11 @@ def timed_parts(parts, spec, layout, clock):
     BLOCK = L.BLOCK
 
     @njit(parallel=L.PRANGE_ONLY, fastmath=L.FAST)
-    def pair_pass(rows, n_blocks, step_now, dt, P, C, R, err, S, bs, fp):
+    def pair_pass(n_blocks, step_now, dt, P, C, R, err, S, bs, fp):
+        slots = C.nbr.shape[0]
         for b in prange(n_blocks):
-            pair_block(rows[b], rows[b + 1], step_now, dt, P, C, R, err, S, bs, fp)
+            pair_block(b * slots // n_blocks, (b + 1) * slots // n_blocks, step_now, dt, P, C, R,
+                       err, S, bs, fp)
 
     @njit(parallel=L.PRANGE_ONLY, fastmath=L.FAST)
     def particle_pass(n_blocks, step, last, t_pose, dt, P, C, W, B, R, err, S, bs, fp,
@@ -85,8 +87,7 @@ def timed_parts(parts, spec, layout, clock):
         n_blocks = (P.x.shape[0] + BLOCK - 1) // BLOCK
         if near_walls_block is not None:
             near_walls_pass(n_blocks, P, W, R, S)
-        pair_pass(L.balanced_rows(C.start, n_blocks), n_blocks, step0, 0.0, P, C, R, A.err, S,
-                  bs, fp)
+        pair_pass(n_blocks, step0, 0.0, P, C, R, A.err, S, bs, fp)
         particle_pass(n_blocks, np.int64(0), last, t + k0 * dt, 0.0, P, C, W, B, R, A.err, S, bs,
                       fp, 0.25 * R.skin * R.skin)
         S.wall_part[:] = 0.0
@@ -100,10 +101,9 @@ def timed_parts(parts, spec, layout, clock):
         n_blocks = (P.x.shape[0] + BLOCK - 1) // BLOCK
         half_skin2 = 0.25 * R.skin * R.skin
         err, stop, rebuild = A.err, S.stop, S.rebuild
-        rows = L.balanced_rows(C.start, n_blocks)
         if near_walls_block is not None:
             near_walls_pass(n_blocks, P, W, R, S)
-        t0 = tick("list lifetime: balanced rows, near walls", t0)
+        t0 = tick("list lifetime: near walls", t0)
         if begin:
             start_pass(n_blocks, t + (k0 + 1) * dt, dt, P, B)
             t0 = tick("start", t0)
@@ -111,7 +111,7 @@ def timed_parts(parts, spec, layout, clock):
                 rebuild[0] = 1
                 return step
         while step < n_steps:
-            pair_pass(rows, n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
+            pair_pass(n_blocks, step0 + step, dt, P, C, R, err, S, bs, fp)
             t0 = tick("pair pass", t0)
             last = step == n_steps - 1 or stop[0] != 0
             t_end, t_pose = t + (k0 + step + 1) * dt, t + (k0 + step + 2) * dt

@@ -315,18 +315,18 @@ def test_fast_approach_from_outside_the_skin_is_caught_by_the_list():
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_pair_pass_ranges_cover_every_row_once_with_even_slots(seed):
-    """The pair pass splits the particles into ranges of about equal numbers of slots (a half
-    list's rows are uneven): consecutive ranges from the first row to the last, each within one
-    row's slots of total / ranges."""
-    from millsim.engine.loop import balanced_rows
+def test_pair_pass_order_takes_every_slot_once_touching_first(seed):
+    """The pair pass takes every slot once with its particle: the touching slots first, then the
+    others, each in slot order."""
+    from millsim.engine.loop import pair_pass_order
 
     rng = np.random.default_rng(seed)
     rows = rng.integers(0, 12, 1000) * (np.arange(1000) < 700)  # long rows first, then none
     start = np.concatenate([[0], np.cumsum(rows)]).astype(np.int64)
-    bounds = balanced_rows(start, 7)
-    assert bounds[0] == 0 and bounds[-1] == 1000
-    assert np.all(np.diff(bounds) >= 0)
-    slots = start[bounds[1:]] - start[bounds[:-1]]
-    assert slots.sum() == start[-1]
-    assert np.all(np.abs(slots - start[-1] / 7) <= rows.max())
+    touching = rng.random(start[-1]) < 0.6
+    slot, owner = pair_pass_order(start, touching)
+    assert np.array_equal(np.sort(slot), np.arange(start[-1]))
+    assert np.array_equal(owner, np.repeat(np.arange(1000), rows)[slot])
+    n_touching = touching.sum()
+    assert touching[slot[:n_touching]].all() and not touching[slot[n_touching:]].any()
+    assert (np.diff(slot[:n_touching]) > 0).all() and (np.diff(slot[n_touching:]) > 0).all()

@@ -53,8 +53,9 @@ RunSettings = namedtuple("RunSettings", [
 # (engine.loop.near_walls). ColourScratch, with force_sum "colour" (engine.loop.colour_slots),
 # adds each particle's force, torque and normal-force sums, the list's slots in colour order (each
 # colour's first place, the slot, its particle and partner) and the springs in that order.
-Scratch = namedtuple("Scratch", ["out", "proll", "wall_part", "audit_part", "stop", "rebuild",
-                                 "lub_slots", "lub_rows", "lub_partner", "lub_particle",
+Scratch = namedtuple("Scratch", ["pair_slot", "pair_owner", "out", "proll", "wall_part",
+                                 "audit_part", "stop", "rebuild", "lub_slots", "lub_rows",
+                                 "lub_partner", "lub_particle",
                                  "cg_part", "wall_near"])
 # A separate type, so that the other runs' loop is typed and compiled as before (with more
 # fields, LLVM inlined and fused the implicit solve otherwise: other rounding).
