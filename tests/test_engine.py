@@ -316,17 +316,21 @@ def test_fast_approach_from_outside_the_skin_is_caught_by_the_list():
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_pair_pass_order_takes_every_slot_once_touching_first(seed):
-    """The pair pass takes every slot once with its particle: the touching slots first, then the
-    others, each in slot order."""
+    """The pair pass takes every slot once with its particle; in each of its ranges of equal
+    size (in slot order) the touching slots first, then the others, each in slot order."""
     from millsim.engine.loop import pair_pass_order
 
     rng = np.random.default_rng(seed)
     rows = rng.integers(0, 12, 1000) * (np.arange(1000) < 700)  # long rows first, then none
     start = np.concatenate([[0], np.cumsum(rows)]).astype(np.int64)
     touching = rng.random(start[-1]) < 0.6
-    slot, owner = pair_pass_order(start, touching)
-    assert np.array_equal(np.sort(slot), np.arange(start[-1]))
+    slots, n_ranges = start[-1], 7
+    slot, owner = pair_pass_order(start, touching, n_ranges)
     assert np.array_equal(owner, np.repeat(np.arange(1000), rows)[slot])
-    n_touching = touching.sum()
-    assert touching[slot[:n_touching]].all() and not touching[slot[n_touching:]].any()
-    assert (np.diff(slot[:n_touching]) > 0).all() and (np.diff(slot[n_touching:]) > 0).all()
+    for r in range(n_ranges):
+        lo, hi = r * slots // n_ranges, (r + 1) * slots // n_ranges
+        part = slot[lo:hi]
+        assert np.array_equal(np.sort(part), np.arange(lo, hi))  # the range's slots, once each
+        flags = touching[part]
+        assert (np.diff(flags.astype(int)) <= 0).all()  # touching first
+        assert (np.diff(part[flags]) > 0).all() and (np.diff(part[~flags]) > 0).all()

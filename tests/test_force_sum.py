@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
-from millsim.engine.loop import colour_slots, touching_slots
+from millsim.engine.loop import BLOCK, colour_slots, touching_slots
 from millsim.models import Interaction, Material, MaterialTable
 from millsim.models.lubrication import Lubrication
 
@@ -62,11 +62,15 @@ def test_colouring_is_proper_and_complete(bed):
     for c in range(len(first) - 1):  # no particle twice in a colour
         ends = np.concatenate([owner[first[c]:first[c + 1]], partner[first[c]:first[c + 1]]])
         assert len(np.unique(ends)) == len(ends), c
-        # touching slots first, then the apart ones, each in slot order
+        # in each block of BLOCK places: the colour's next slots, touching first, each in
+        # slot order
         group = slot[first[c]:first[c + 1]]
-        flags = touching[group]
-        assert (np.diff(flags.astype(int)) <= 0).all(), c
-        assert (np.diff(group[flags]) > 0).all() and (np.diff(group[~flags]) > 0).all(), c
+        for lo in range(0, len(group), BLOCK):
+            block = group[lo:lo + BLOCK]
+            flags = touching[block]
+            assert np.array_equal(np.sort(block), np.sort(group)[lo:lo + BLOCK]), c
+            assert (np.diff(flags.astype(int)) <= 0).all(), c
+            assert (np.diff(block[flags]) > 0).all() and (np.diff(block[~flags]) > 0).all(), c
     # greedy colouring needs at most (deg i + deg j - 1) colours over any slot
     degree = np.bincount(np.concatenate([row_of, nbr]), minlength=len(start) - 1)
     assert len(first) - 1 <= 2 * degree.max() - 1

@@ -213,7 +213,8 @@ class ChunkRunner:
                                  colour_slot=order, colour_owner=owner, colour_partner=partner,
                                  colour_state=C.state[order], **shared)
         slot, owner = pair_pass_order(C.start,
-                                      touching_slots(C.start, C.nbr, P.x, P.radius, R.box_len))
+                                      touching_slots(C.start, C.nbr, P.x, P.radius, R.box_len),
+                                      (P.x.shape[0] + BLOCK - 1) // BLOCK)
         return Scratch(pair_slot=slot, pair_owner=owner,
                        out=np.empty((slots, self.slot_width)),
                        proll=np.empty((slots if self.rolling else 0, 2, 3)),
@@ -246,11 +247,12 @@ def touching_slots(start, nbr, x, radius, box_len):
 @njit(cache=True)
 def colour_slots(start, nbr, touching):
     """The half list's slots coloured so that no two slots of a colour share a particle (greedy,
-    rows in order: the same colours on any thread count), in colour order. Within a colour the
-    slots that are ``touching`` come first, then the others, each by slot: the pass's branch
-    between touching and apart slots is then taken the same way for long runs (1.10x in
-    bench/colour_scatter_probe.py). A colour's slots share no particle, so their order within it
-    changes no sum. Returns (each colour's first place and the end, the slot, its particle and
+    rows in order: the same colours on any thread count), in colour order. Within each block of
+    BLOCK places of a colour (the pass's unit of work) the slots that are ``touching`` come
+    first, then the others, each by slot: the pass's branch between touching and apart slots is
+    then taken the same way for long runs (1.10x in bench/colour_scatter_probe.py), and every
+    block keeps its mix of costly and cheap slots. A colour's slots share no particle, so their
+    order within it changes no sum. Returns (each colour's first place and the end, the slot, its particle and
     partner at each place)."""
     n, slots = start.shape[0] - 1, nbr.shape[0]
     degree = np.zeros(max(n, 1), dtype=np.int64)
@@ -287,32 +289,51 @@ def colour_slots(start, nbr, touching):
     order = np.empty(slots, dtype=np.int64)
     owner = np.empty(slots, dtype=np.int64)
     partner = np.empty(slots, dtype=np.int64)
-    for sweep in (True, False):
-        for i in range(n):
-            for k in range(start[i], start[i + 1]):
-                if touching[k] == sweep:
-                    q = place[colour[k]]
-                    place[colour[k]] += 1
-                    order[q], owner[q], partner[q] = k, i, nbr[k]
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            q = place[colour[k]]
+            place[colour[k]] += 1
+            order[q] = k
+    # within each block of BLOCK places of a colour (a thread's share), touching slots first
+    for c in range(n_colours):
+        for lo in range(first[c], first[c + 1], BLOCK):
+            hi = min(lo + BLOCK, first[c + 1])
+            block = order[lo:hi].copy()
+            q = lo
+            for sweep in (True, False):
+                for k in block:
+                    if touching[k] == sweep:
+                        order[q] = k
+                        q += 1
+    row = np.empty(slots, dtype=np.int64)
+    for i in range(n):
+        row[start[i]:start[i + 1]] = i
+    for q in range(slots):
+        owner[q], partner[q] = row[order[q]], nbr[order[q]]
     return first, order, owner, partner
 
 
 @njit(cache=True)
-def pair_pass_order(start, touching):
-    """The order the pair pass takes the slots in (slot records): those ``touching`` first, then
-    the others, each in slot order; returns (the slot, its particle) at each place. The pass's
-    branch between touching and apart slots is then taken the same way for long runs (1.10x on
-    one thread, docs/results/engine_speed.md). Each slot writes only its own record and state,
-    so the order changes no number; the threads take equal ranges of places."""
-    n, slots = start.shape[0] - 1, touching.shape[0]
+def pair_pass_order(start, touching, n_ranges):
+    """The order the pair pass takes the slots in (slot records), for its ``n_ranges`` ranges of
+    equal size (the threads' shares, in slot order): within each range the slots ``touching``
+    first, then the others, each in slot order. Returns (the slot, its particle) at each place.
+    The pass's branch between touching and apart slots is then taken the same way for long
+    runs (1.10x on one thread, docs/results/engine_speed.md), and every range keeps its mix of
+    costly and cheap slots. Each slot writes only its own record and state, so the order
+    changes no number."""
+    slots = touching.shape[0]
+    row = np.empty(slots, dtype=np.int64)
+    for i in range(start.shape[0] - 1):
+        row[start[i]:start[i + 1]] = i
     slot = np.empty(slots, dtype=np.int64)
     owner = np.empty(slots, dtype=np.int64)
     q = 0
-    for sweep in (True, False):
-        for i in range(n):
-            for k in range(start[i], start[i + 1]):
-                if touching[k] == sweep:
-                    slot[q], owner[q] = k, i
+    for r in range(n_ranges):
+        for touching_now in (True, False):
+            for k in range(r * slots // n_ranges, (r + 1) * slots // n_ranges):
+                if touching[k] == touching_now:
+                    slot[q], owner[q] = k, row[k]
                     q += 1
     return slot, owner
 
