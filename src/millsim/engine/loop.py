@@ -252,8 +252,8 @@ def colour_slots(start, nbr, touching):
     first, then the others, each by slot: the pass's branch between touching and apart slots is
     then taken the same way for long runs (1.10x in bench/colour_scatter_probe.py), and every
     block keeps its mix of costly and cheap slots. A colour's slots share no particle, so their
-    order within it changes no sum. Returns (each colour's first place and the end, the slot, its particle and
-    partner at each place)."""
+    order within it changes no sum. Returns (each colour's first place and the end, the slot,
+    its particle and partner at each place)."""
     n, slots = start.shape[0] - 1, nbr.shape[0]
     degree = np.zeros(max(n, 1), dtype=np.int64)
     for i in range(n):

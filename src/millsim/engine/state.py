@@ -45,18 +45,19 @@ MeshWallArrays = namedtuple("MeshWallArrays", [*WallArrays._fields, *MESH_FIELDS
 BodyArrays = namedtuple("BodyArrays", ["table", "members", "load", "impulse", "work"])
 RunSettings = namedtuple("RunSettings", [
     "pair_params", "gravity", "box_lo", "box_len", "skin", "reach", "dim", "max_overlap", "v_max"])
-# Per-chunk scratch of the loop: slot records and rolling torques per Verlet slot, per-block partial
-# sums of wall loads and audit powers, and the stop and rebuild flags; with implicit lubrication
-# (engine.implicit) the rows per slot and per particle and wall, each pair row's share on its
-# partner in a CG product, the per-particle loads and velocities of the solve, and its per-block
-# partial sums (length 0 otherwise); in dry runs with walls, each particle's near-wall bit mask
-# (engine.loop.near_walls). ColourScratch, with force_sum "colour" (engine.loop.colour_slots),
-# adds each particle's force, torque and normal-force sums, the list's slots in colour order (each
-# colour's first place, the slot, its particle and partner) and the springs in that order.
+# Per-chunk scratch of the loop: the record pass's order (slot and its particle at each place,
+# engine.loop.pair_pass_order; empty with colour sums), slot records and rolling torques per
+# Verlet slot, per-block partial sums of wall loads and audit powers, and the stop and rebuild
+# flags; with implicit lubrication (engine.implicit) the rows per slot and per particle and wall,
+# each pair row's share on its partner in a CG product, the per-particle loads and velocities of
+# the solve, and its per-block partial sums (length 0 otherwise); in dry runs with walls, each
+# particle's near-wall bit mask (engine.loop.near_walls). ColourScratch, with force_sum "colour"
+# (engine.loop.colour_slots), adds each particle's force, torque and normal-force sums, the
+# list's slots in colour order (each colour's first place, the slot, its particle and partner)
+# and the springs in that order.
 Scratch = namedtuple("Scratch", ["pair_slot", "pair_owner", "out", "proll", "wall_part",
                                  "audit_part", "stop", "rebuild", "lub_slots", "lub_rows",
-                                 "lub_partner", "lub_particle",
-                                 "cg_part", "wall_near"])
+                                 "lub_partner", "lub_particle", "cg_part", "wall_near"])
 # A separate type, so that the other runs' loop is typed and compiled as before (with more
 # fields, LLVM inlined and fused the implicit solve otherwise: other rounding).
 ColourScratch = namedtuple("ColourScratch", [*Scratch._fields, "force", "colour_start",
