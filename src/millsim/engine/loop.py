@@ -229,6 +229,15 @@ class ChunkRunner:
 
 
 @njit(cache=True)
+def _slot_rows(start):
+    """The particle (row) of each slot of a CSR list."""
+    row = np.empty(start[start.shape[0] - 1], dtype=np.int64)
+    for i in range(start.shape[0] - 1):
+        row[start[i]:start[i + 1]] = i
+    return row
+
+
+@njit(cache=True)
 def touching_slots(start, nbr, x, radius, box_len):
     """Whether each slot's pair overlaps now (minimum image along axes with box_len > 0)."""
     touching = np.empty(nbr.shape[0], dtype=np.bool_)
@@ -305,9 +314,7 @@ def colour_slots(start, nbr, touching):
                     if touching[k] == sweep:
                         order[q] = k
                         q += 1
-    row = np.empty(slots, dtype=np.int64)
-    for i in range(n):
-        row[start[i]:start[i + 1]] = i
+    row = _slot_rows(start)
     for q in range(slots):
         owner[q], partner[q] = row[order[q]], nbr[order[q]]
     return first, order, owner, partner
@@ -323,9 +330,7 @@ def pair_pass_order(start, touching, n_ranges):
     costly and cheap slots. Each slot writes only its own record and state, so the order
     changes no number."""
     slots = touching.shape[0]
-    row = np.empty(slots, dtype=np.int64)
-    for i in range(start.shape[0] - 1):
-        row[start[i]:start[i + 1]] = i
+    row = _slot_rows(start)
     slot = np.empty(slots, dtype=np.int64)
     owner = np.empty(slots, dtype=np.int64)
     q = 0
