@@ -3,9 +3,9 @@
 Each mutant in ``tools/mutants.yaml`` is one realistic physics bug: a text edit of one source file
 (``find`` must occur exactly ``count`` times, 1 by default, so a mutant that no longer applies after
 a refactor is reported as stale instead of silently testing nothing) and the test files that
-should catch it. For every mutant the tool copies ``src/`` and ``tests/`` to a scratch directory,
-applies the edit there, and runs pytest on the mutant's tests with the copy first on
-``PYTHONPATH``. The mutant is killed when pytest fails.
+should catch it. For every mutant the tool copies ``src/``, ``tests/`` and what they read
+(``PARTS``) to a scratch directory, applies the edit there, and runs pytest on the mutant's tests
+with the copy first on ``PYTHONPATH``. The mutant is killed when pytest fails.
 
 Compile time dominates. numba recompiles a cached function when its own source file changed, but
 not when a function it inlines from another file did: so a mutant in a file whose functions are
@@ -41,7 +41,10 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 MUTANTS = ROOT / "tools" / "mutants.yaml"
-PARTS = ("src", "tests", "config")
+# what the tests read besides the sources: the materials file, the shipped liner, the workflow and
+# the docs they check (a missing file would fail the test and count as a kill)
+PARTS = ("src", "tests", "config", "examples", "workflow", "profiles", "docs", "Snakefile",
+         "README.md", "pyproject.toml")
 REQUIRED = ("id", "file", "find", "replace", "tests", "why")
 # Files with functions the compiled loop calls or inlines (a mutant there needs a fresh cache).
 COMPILED = ("src/millsim/engine/", "src/millsim/models/contact.py", "src/millsim/models/lubrication.py",
@@ -86,14 +89,19 @@ def load_mutants(path=MUTANTS):
 
 
 def snapshot(ref, dest):
-    """src/, tests/ and config/ (the materials file the scenes read) of the working tree (ref
-    None) or of a commit, copied into dest."""
+    """The PARTS of the working tree (ref None) or of a commit, copied into dest."""
     if ref is None:
         for part in PARTS:
-            shutil.copytree(ROOT / part, dest / part,
-                            ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+            if (ROOT / part).is_file():
+                shutil.copy2(ROOT / part, dest / part)
+            elif (ROOT / part).is_dir():
+                shutil.copytree(ROOT / part, dest / part,
+                                ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
         return
-    archive = subprocess.run(["git", "-C", str(ROOT), "archive", ref, *PARTS],
+    present = subprocess.run(["git", "-C", str(ROOT), "ls-tree", "--name-only", ref],
+                             check=True, capture_output=True, text=True).stdout.split()
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", ref,
+                              *[p for p in PARTS if p in present]],
                              check=True, capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
 
