@@ -63,11 +63,15 @@ BAD_MATERIALS = "materials: [1, 2\n"  # not YAML
      "grain_radius: the largest grain, 0.055 m"),
     (["ballmill2d", "--out", "c.nc", "--set", "lifter_height=0.06", "--set", "drum_radius=0.05"],
      "lifter_height: 0.06 m reaches the drum's axis; allowed [0, drum_radius = 0.05) m"),
-    # a record per step would write gigabytes of snapshots
+    # a record per step would write gigabytes of snapshots (a short run: its records fit in
+    # memory, so the step decides)
     (["ballmill2d", "--out", "c.nc", "--set", "drum_radius=0.02", "--set", "filling=0.3",
-      "--set", "grain_radius=0.002", "--set", "record_interval=1e-9", "--snapshots", "s.h5"],
-     "record_interval: 1e-09 s is below "
-                                                               "the time step"),
+      "--set", "grain_radius=0.002", "--set", "duration=0.002", "--set", "transient=0.001",
+      "--set", "snapshot_interval=0.001", "--set", "record_interval=1e-9", "--snapshots", "s.h5"],
+     "record_interval: 1e-09 s is below the time step"),
+    # a long run: its records alone would not fit, refused before the build
+    (["ballmill2d", "--out", "c.nc", "--set", "record_interval=1e-9"],
+     "record_interval: 3000000001 records"),
     (["bed_impact", "--out", "c.nc", "--set", "rings=0", "--set", "record_interval=1e-12"],
      "record_interval: 1e-12 s is below the time step"),
     # a run shorter than one record interval (it ended in 'the ball never reached the bed')

@@ -7,6 +7,11 @@
   rounding: no bump at an edge or vertex, no double counting.
 - A sphere over a convex edge or vertex of a box touches it once: the force equals one contact
   with a plane through the edge point, normal along the line to the centre.
+- One contact per touching surface where rounding decides the region: a sphere resting exactly
+  over a shared edge or vertex (4, 6, 8 triangles) of turned triangulations sits where the
+  analytic plane puts it (m g / k_n); in a meshed 90 degree groove, touched exactly at vertices,
+  at the closed-form balance; rolling down an incline near the friction limit across triangles
+  (the loaded tangential spring carried over) as on the analytic plane, (5/14) g sin(a) t^2.
 - A plate turning about its normal carries a particle as the analytic turning plane does (the
   mesh frame's angle, the surface velocity, the list rebuilds its travel asks for), and receives
   the same work; a rising plate as the translating plane.
@@ -32,32 +37,49 @@ PLAIN_SPEC = PhysicsSpec(dim=3, walls=True)
 G = (0.0, 0.0, -9.81)
 
 
-def plate(cells, half, depth):
+def plate(cells, half, depth, alternate=False):
     """A closed slab [-half, half]^2 x [-depth, 0] whose top is cut into cells x cells squares
     (two triangles each) and whose sides match its edge vertices (no T-junctions)."""
     s = np.linspace(-half, half, cells + 1)
-    gx, gy = np.meshgrid(s, s, indexing="ij")
-    top = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+    return block(s, s, lambda x, y: 0.0 * x, depth, alternate)
+
+
+def block(xs, ys, height, depth, alternate=False):
+    """A closed solid over the grid xs x ys from z = -depth up to z = height(x, y): its top is
+    cut into two triangles per cell, all diagonals alike (interior vertices of 6 triangles) or
+    alternating (``alternate``: vertices of 4 and 8), its sides match its edge vertices."""
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    top = np.column_stack([gx.ravel(), gy.ravel(), height(gx, gy).ravel()])
     bottom = top.copy()
     bottom[:, 2] = -depth
     vertices = np.vstack([top, bottom])
     nb = len(top)
+    nx, ny = len(xs) - 1, len(ys) - 1
 
     def idx(i, j):
-        return i * (cells + 1) + j
+        return i * (ny + 1) + j
 
     faces = []
-    for i in range(cells):
-        for j in range(cells):
+    for i in range(nx):
+        for j in range(ny):
             a, b, c, d = idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)
-            faces += [(a, b, c), (a, c, d)]  # up
-            faces += [(a + nb, c + nb, b + nb), (a + nb, d + nb, c + nb)]  # down
-    ring = ([idx(i, 0) for i in range(cells)] + [idx(cells, j) for j in range(cells)]
-            + [idx(i, cells) for i in range(cells, 0, -1)] + [idx(0, j) for j in range(cells, 0, -1)])
+            up = [(a, b, d), (b, c, d)] if alternate and (i + j) % 2 else [(a, b, c), (a, c, d)]
+            faces += up + [(p + nb, r + nb, q + nb) for p, q, r in up]  # down
+    ring = ([idx(i, 0) for i in range(nx)] + [idx(nx, j) for j in range(ny)]
+            + [idx(i, ny) for i in range(nx, 0, -1)] + [idx(0, j) for j in range(ny, 0, -1)])
     for k in range(len(ring)):  # counter-clockwise seen from above: outward side quads
         a, b = ring[k], ring[(k + 1) % len(ring)]
         faces += [(a, a + nb, b + nb), (a, b + nb, b)]
     return vertices, np.array(faces)
+
+
+def turned(vertices, theta):
+    """The vertices turned by theta about the z axis."""
+    c, s = math.cos(theta), math.sin(theta)
+    out = vertices.copy()
+    out[:, 0] = c * vertices[:, 0] - s * vertices[:, 1]
+    out[:, 1] = s * vertices[:, 0] + c * vertices[:, 1]
+    return out
 
 
 def make_sim(spec, x, v=None, w=None, walls=(), friction=0.5, gravity=G, impact_speed=1.0):
@@ -161,6 +183,98 @@ def test_a_convex_edge_or_vertex_counts_once(centre_offset):
         plane.particles.v[0]).max()
     tags = mesh._W.mesh_hist[0, :, mesh.layout.wall_columns + 3]
     assert (tags != 0).sum() == 1
+
+
+# ---- one contact per touching surface ---------------------------------------------------------
+# A sphere exactly over a shared edge or vertex: rounding makes the triangles there report two
+# faces, or an edge and a vertex; exactly one of them must count (mesh.owns).
+
+REST = MASS * 9.81 / K_N  # static overlap of one contact carrying m g (linear spring)
+FLAT = dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")
+
+
+@pytest.mark.parametrize("theta", [0.0, 0.7, 2.0])
+def test_a_sphere_resting_over_a_shared_edge_or_vertex_carries_m_g_once(theta):
+    """Friction 0, damped: placed over a vertex of 4, 6 or 8 triangles, or over a shared edge
+    (of the grid, or a diagonal), of a regular triangulation turned by theta, the sphere comes
+    to rest at the overlap m g / k_n, where the analytic plane puts it (not at half of it:
+    two faces counted; nor through the plate: none)."""
+    plane = make_sim(PLAIN_SPEC, [[0.0, 0.0, R]], walls=[FLAT], friction=0.0)
+    plane.run(4000)
+    assert R - plane.particles.x[0, 2] == pytest.approx(REST, rel=1e-9)
+
+    def idx(i, j):
+        return i * 7 + j  # the top's 7 x 7 vertices
+
+    spots = {False: [(idx(3, 3),), (idx(3, 3), idx(4, 3)), (idx(3, 3), idx(4, 4))],  # 6; edges
+             True: [(idx(3, 3),), (idx(3, 2),), (idx(3, 2), idx(4, 2))]}  # vertices of 8, 4
+    for alternate, features in spots.items():
+        vertices, faces = plate(6, 0.006, 0.002, alternate)
+        vertices = turned(vertices, theta)
+        for feature in features:
+            spot = vertices[list(feature)].mean(axis=0)
+            mesh = make_sim(MESH_SPEC, [[spot[0], spot[1], R]], walls=[mesh_wall(vertices, faces)],
+                            friction=0.0)
+            mesh.set_time_step(plane.dt)
+            mesh.run(4000)
+            shift = mesh.particles.x[0] - [spot[0], spot[1], 0.0]
+            assert np.abs(shift - plane.particles.x[0]).max() < 1e-9 * REST, (alternate, feature)
+            assert np.abs(mesh.particles.v[0] - plane.particles.v[0]).max() < 1e-12
+
+
+@pytest.mark.parametrize("theta,alternate", [(0.0, False), (0.7, True), (2.0, False)])
+def test_a_sphere_in_a_meshed_right_angle_groove_rests_at_the_static_balance(theta, alternate):
+    """Friction 0, damped, in a 90 degree groove (faces z = |x|) whose triangulation has a
+    vertex exactly where each face is touched: at rest each face carries m g / sqrt(2), so the
+    centre sits on the groove's plane of symmetry at sqrt(2) (R - m g / (sqrt(2) k_n))."""
+    delta = MASS * 9.81 / (math.sqrt(2.0) * K_N)
+    foot = (R - delta) / math.sqrt(2.0)  # the contact points' distance from the groove's bottom
+    xs = foot * np.array([-5.0, -3.0, -1.0, 0.0, 1.0, 3.0, 5.0])
+    vertices, faces = block(xs, 2.0 * foot * np.arange(-3, 4), lambda x, y: np.abs(x), 0.002,
+                             alternate)
+    vertices = turned(vertices, theta)
+    mesh = make_sim(MESH_SPEC, [[0.0, 0.0, math.sqrt(2.0) * R]],
+                    walls=[mesh_wall(vertices, faces)], friction=0.0)
+    mesh.run(4000)
+    x = mesh.particles.x[0]
+    assert np.abs(x[:2]).max() < 1e-9 * delta  # both faces alike
+    assert (math.sqrt(2.0) * R - x[2]) / math.sqrt(2.0) == pytest.approx(delta, rel=1e-9)
+    assert np.abs(mesh.particles.v[0]).max() < 1e-12
+
+
+@pytest.mark.parametrize("theta,heading,start", [
+    (0.0, 0.3, (-0.012, -0.004)),  # across grid edges and diagonals at arbitrary points
+    (0.7, 0.0, (-0.014, 0.0)),  # from a vertex along a row of shared edges and their vertices
+])
+def test_the_tangential_spring_carries_over_from_triangle_to_triangle(theta, heading, start):
+    """A sphere rolling down an incline (gravity tilted) at 0.9 of the friction it can hold
+    ((2/7) tan(alpha) = 0.9 mu): the spring carries (2/7) m g sin(alpha) all the way while the
+    contact crosses triangles. It rolls as on the analytic plane (no slip where the plane has
+    none) and covers (5/14) g sin(alpha) t^2."""
+    mu = 0.5
+    tan_a = 0.9 * mu * 3.5
+    alpha = math.atan(tan_a)
+    along = np.array([math.cos(theta + heading), math.sin(theta + heading), 0.0])
+    gravity = 9.81 * (math.sin(alpha) * along + math.cos(alpha) * np.array([0.0, 0.0, -1.0]))
+    vertices, faces = plate(20, 0.02, 0.003)  # 2 mm squares
+    vertices = turned(vertices, theta)
+    x = [turned(np.array([[start[0], start[1], R]]), theta)[0]]
+    plane = make_sim(PLAIN_SPEC, x, walls=[FLAT], friction=mu, gravity=gravity)
+    mesh = make_sim(MESH_SPEC, x, walls=[mesh_wall(vertices, faces)], friction=mu,
+                    gravity=gravity)
+    mesh.set_time_step(plane.dt)
+    for _ in range(20):
+        plane.run(1000)
+        mesh.run(1000)
+        assert np.abs(mesh.particles.v[0] - plane.particles.v[0]).max() < 1e-12
+        assert np.abs(mesh.particles.w[0] - plane.particles.w[0]).max() < 1e-9
+    travelled = (mesh.particles.x[0] - x[0]) @ along
+    assert travelled > 0.006  # across three squares at least
+    assert travelled == pytest.approx(5.0 / 14.0 * 9.81 * math.sin(alpha) * mesh.time**2,
+                                      rel=1e-4)
+    lever = 0.5 * (R + mesh.particles.x[0, 2])  # to the contact point, mid-overlap
+    slip = mesh.particles.v[0] + np.cross(mesh.particles.w[0], [0.0, 0.0, -lever])
+    assert np.linalg.norm(slip) < 1e-6 * np.linalg.norm(mesh.particles.v[0])
 
 
 # ---- moving meshes ----------------------------------------------------------------------------

@@ -15,6 +15,14 @@ DRUM = 0.05
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
+def _masses(rng, n_over_nc):
+    """Mass per radius class (3 snapshots x 6 classes, coarse to fine mass moving finer with time
+    and speed), with some noise: a product that looks like one."""
+    fine = 1.0 / (0.8 + 0.6 * n_over_nc * np.array([[0.6], [0.8], [1.0]]))
+    classes = np.arange(6)[None, :]  # 0: finest
+    return np.exp(-fine * (5 - classes) ** 1.3) * (1 + 0.1 * rng.random((3, 6)))
+
+
 def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3, seed=1):
     """A case file with every variable of the ballmill2d contract, numbers made up from n/n_c."""
     rng = np.random.default_rng(int(n_over_nc * 100))
@@ -37,12 +45,16 @@ def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3, seed=1):
         edges = np.geomspace(1e-4, 4e-3, 7)
         coords |= {
             "snapshot": ("snapshot", [0.5, 0.75, 1.0], {"units": "s"}),
-            "size_class": ("size_class", np.sqrt(edges[1:] * edges[:-1]), {"units": "m"}),
+            "size_class": ("size_class", 0.5 * (edges[1:] + edges[:-1]),
+                           {"units": "m", "bounds": "size_class_bounds"}),
+            # the scene's CF bounds of each class (scenes/ballmill2d.py)
+            "size_class_bounds": (("size_class", "bound"),
+                                  np.column_stack([edges[:-1], edges[1:]]), {"units": "m"}),
             "event": ("event", np.arange(5), unit),
         }
         data |= {
-            "size_class_edges": ("size_class_edge", edges, {"units": "m"}),
-            "size_distribution": (("snapshot", "size_class"), rng.random((3, 6)), {"units": "kg"}),
+            "size_distribution": (("snapshot", "size_class"), _masses(rng, n_over_nc),
+                                  {"units": "kg"}),
             "event_time": ("event", np.sort(rng.random(5)), {"units": "s"}),
             "fracture_frequency": (("gy", "gx"), rng.random((8, 8)), {"units": "s-1 m-2"}),
             # a rate peaked at n/n_c = 1, as Buchholtz et al. 2000 reports
@@ -54,7 +66,8 @@ def synthetic_case(path, n_over_nc, fragmentation=True, filling=0.3, seed=1):
         coords |= {"chain_length": ("chain_length", length, unit),
                    "chain_position": ("chain_position", np.linspace(0.05, 0.95, 10), unit)}
         data |= {
-            "chain_count": ("chain_length", 100.0 / length**2, unit),
+            # whole chains counted over all records: small integers, as in a short run
+            "chain_count": ("chain_length", np.floor(12.0 / (length - 2)), unit),
             "chain_max_pressure": ("chain_length", 1e4 * length, {"units": "Pa"}),
             "chain_force_profile": ("chain_position", np.linspace(1.0, 2.0, 10), {"units": "N"}),
         }
@@ -99,12 +112,14 @@ def test_aggregate_stacks_along_speed_and_normalises_rate(cases):
         mass = case["size_distribution"].values  # (snapshot, size_class)
         fraction = mass / mass.sum(1, keepdims=True)
         speed = float(case["n_over_nc"])
-        np.testing.assert_allclose(ds["mass_fraction"].sel(n_over_nc=speed), fraction.mean(0), rtol=1e-12)
+        np.testing.assert_allclose(ds["mass_fraction"].sel(n_over_nc=speed), fraction.mean(0),
+                                   rtol=1e-12)
         np.testing.assert_allclose(ds["mass_fraction_std"].sel(n_over_nc=speed), fraction.std(0),
                                    rtol=1e-12)
         np.testing.assert_allclose(ds["size_distribution_mean"].sel(n_over_nc=speed), mass.mean(0),
                                    rtol=1e-12)
-    assert ds["size_distribution_mean"].attrs["units"] == "kg" and ds["mass_fraction"].attrs["units"] == "1"
+    assert ds["size_distribution_mean"].attrs["units"] == "kg"
+    assert ds["mass_fraction"].attrs["units"] == "1"
     assert ds["pressure"].dims == ("n_over_nc", "gy", "gx")
     # provenance: equal attributes survive, differing ones do not
     assert ds.attrs["param_filling"] == 0.3 and ds.attrs["scene"] == "ballmill2d"
@@ -211,7 +226,8 @@ def test_registry_lists_every_figure_once_with_a_drawing_function(capsys):
     assert [name for name, _, _ in rows] == list(PLOTS)
     for name, source, caption in rows:
         kind, _, dataset = source.partition(":")
-        assert kind in ("aggregate", "table", "snapshots") and bool(dataset) == (kind != "snapshots")
+        assert kind in ("aggregate", "table", "snapshots")
+        assert bool(dataset) == (kind != "snapshots")
         assert len(caption) > 40, name
         assert callable(PLOTS[name].function())
     # the figures the pipeline draws, by study

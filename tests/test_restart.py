@@ -7,6 +7,9 @@ so that what the resumed run continues includes the breakage model's state (twin
 forces, the split generator, dust awaiting refill) as well as contacts, Gear history and the drum.
 """
 
+import contextlib
+import errno
+import io
 import os
 import shlex
 import shutil
@@ -19,6 +22,7 @@ import numpy as np
 import pytest
 
 import millsim.io
+import millsim.util.checkpoint
 from millsim.cli import main
 from millsim.io import read_case, read_checkpoint, write_checkpoint
 from millsim.models.contact import LAWS
@@ -39,9 +43,24 @@ TIMING = {"wall_time_s", "compute_seconds", "created_utc", "history", "resumed_a
 
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory):
+    """The reference case file, of a run whose checkpoint saves, one after every chunk, all fail
+    on a full disk: each says so in one line, leaves no file, and the run goes on."""
     out = tmp_path_factory.mktemp("uninterrupted") / "case.nc"
-    assert main([*RUN, "--checkpoint-every", "0", "--out", str(out), "--quiet"]) == 0
-    assert not os.path.exists(f"{out}.ckpt")
+
+    def disk_full(path, *_):
+        with open(path, "wb") as fh:
+            fh.write(b"partial")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    err = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stderr(err):
+        mp.setattr(millsim.util.checkpoint, "write", disk_full)
+        assert main([*RUN, "--checkpoint-every", "1e-9", "--out", str(out), "--quiet"]) == 0
+    lines = err.getvalue().splitlines()
+    saying = f"[millsim] checkpoint not saved: cannot write {out}.ckpt: disk full (no space left"
+    assert len(lines) > 10 and all(line.startswith(saying) for line in lines)
+    assert all(line.endswith("; the run goes on without it, next try in 1e-09 s") for line in lines)
+    assert os.listdir(out.parent) == ["case.nc"]
     return read_case(out)
 
 
@@ -88,7 +107,8 @@ def test_a_killed_run_resumes_from_its_checkpoint_to_the_same_case_file(tmp_path
     # the checkpoint of other parameters is not used, and is gone once that case is written
     other = tmp_path / "other.nc"
     shutil.copy(ckpt, f"{other}.ckpt")
-    assert main([*RUN, "--set=seed=4", "--out", str(other), "--quiet"]) == 0
+    assert RUN[-1] == "--set=seed=3"  # replaced, not given twice (that is refused)
+    assert main([*RUN[:-1], "--set=seed=4", "--out", str(other), "--quiet"]) == 0
     assert (f"[millsim] ignoring checkpoint {other}.ckpt: written under another parameter seed; "
             "starting from step 0") in capsys.readouterr().err
     assert read_case(other).attrs["resumed_at_steps"] == ""
@@ -147,6 +167,6 @@ def test_a_checkpoint_of_other_code_or_no_checkpoint_at_all_is_ignored(tmp_path,
 
 def test_compiled_functions_are_refused_and_a_failed_write_leaves_nothing(tmp_path):
     path = tmp_path / "case.nc.ckpt"
-    with pytest.raises(TypeError, match="would be pickled"):
+    with pytest.raises(TypeError, match="compiled code is rebuilt on load, never saved"):
         write_checkpoint(path, {}, {"law": LAWS["linear_hw"].force})
     assert list(tmp_path.iterdir()) == []

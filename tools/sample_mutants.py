@@ -14,7 +14,8 @@ analysis module, lists every place one of these operators applies
 
 draws ``--per-module`` of them with a fixed seed (the same sample every run, so a score before and
 after a change compares the same mutants), and runs each against the test files that import its
-module (directly; for a module no test imports, the test files importing its nearest importer).
+module (directly; for a module no test imports, the test files importing its nearest importer;
+for a scene, also the test files that name it).
 The tree each mutant runs in is a copy of ``src/``, ``tests/`` and what the tests read
 (``config/``, ``examples/``, the workflow, the docs: ``mutate.PARTS``); the unmutated copy runs
 first (the baseline) and a test file that fails there is left out of every mutant's run and named
@@ -196,7 +197,9 @@ def _imports(path, package):
 
 
 def test_files_for(module):
-    """Test files importing ``module``; if none, those importing its nearest importer."""
+    """Test files importing ``module``, or if none its nearest importer; for a scene, also the
+    test files that name it (scenes are registered by name and loaded on demand, so the tests
+    that run a scene seldom import it)."""
     dotted = "millsim." + module.replace("/", ".")
     tests = {p: _imports(p, "tests") for p in sorted((ROOT / "tests").glob("test_*.py"))}
     sources = {}
@@ -205,18 +208,16 @@ def test_files_for(module):
         package = name.rsplit(".", 1)[0] if p.name != "__init__.py" else name.removesuffix(
             ".__init__")
         sources[name.removesuffix(".__init__")] = _imports(p, package)
-    wanted, seen = {dotted}, set()
-    while wanted:
-        hits = [str(p.relative_to(ROOT)) for p, imp in tests.items() if imp & wanted]
-        if hits:
-            return hits
+    wanted, seen, hits = {dotted}, set(), []
+    while wanted and not hits:
+        hits = [p for p, imp in tests.items() if imp & wanted]
         seen |= wanted
         wanted = {name for name, imp in sources.items() if imp & wanted} - seen
-    # scenes are registered by name (scenes.SCENE_MODULES) and loaded on demand: the tests that
-    # name the scene (or a scene that imports the module) run it
-    names = "|".join(re.escape(m.rsplit(".", 1)[-1]) for m in sorted(seen))
-    quoted = re.compile(rf"[\"']({names})[\"']")
-    return [str(p.relative_to(ROOT)) for p in tests if quoted.search(p.read_text())]
+    scenes = sorted(m.rsplit(".", 1)[-1] for m in seen if m.startswith("millsim.scenes."))
+    if scenes:
+        quoted = re.compile(rf"[\"']({'|'.join(map(re.escape, scenes))})[\"']")
+        hits += [p for p in tests if p not in hits and quoted.search(p.read_text())]
+    return sorted(str(p.relative_to(ROOT)) for p in hits)
 
 
 def load_equivalent(path=EQUIVALENT):

@@ -20,20 +20,34 @@ from millsim.util import interrupt
 
 
 def _parse_sets(pairs, option="--set"):
-    """KEY=VALUE arguments of a repeatable option as a dict of strings."""
+    """KEY=VALUE arguments of a repeatable option as a dict of strings; a key given twice is
+    refused (the last would silently win)."""
     out = {}
     for item in pairs or ():
         if "=" not in item:
             raise ValueError(f"{option}: expected key=value, got {item!r}")
-        key, value = item.split("=", 1)
-        out[key.strip()] = value.strip()
+        key, value = (part.strip() for part in item.split("=", 1))
+        if key in out:
+            raise ValueError(f"{option}: {key} given twice ({out[key]!r} and {value!r}); "
+                             "give it once")
+        out[key] = value
     return out
+
+
+def _load_scene_modules(modules):
+    """The user's scene modules of ``--scene-module`` (files or module names), imported so that
+    their scenes register themselves."""
+    from .scenes import load_module
+
+    for spec in modules or ():
+        load_module(spec)
 
 
 def cmd_scenes(args):
     from .scenes import load_all
     from .scenes.base import REGISTRY, get_scene
 
+    _load_scene_modules(args.scene_module)
     if args.name:
         scene = get_scene(args.name)
         print(f"{scene.name}: {scene.summary}")
@@ -59,6 +73,20 @@ def _check_out(out, inputs=(), suffix=None, key="--out"):
     check_writable(out, key)
 
 
+def _distinct(outputs):
+    """Refuse two output options ({option: path or None}) naming one file: the later write
+    would replace the earlier, and the command would still end well."""
+    seen = {}
+    for key, out in outputs.items():
+        if out is None:
+            continue
+        where = Path(out).resolve()
+        if where in seen:
+            raise ValueError(f"{key}: {str(out)!r} is also {seen[where]}; give each output "
+                             "its own file")
+        seen[where] = key
+
+
 def _threads(requested):
     """``--threads`` checked: at least 1; above the threads numba has, it runs on those and says
     so (the results are the same with any number of threads)."""
@@ -81,6 +109,7 @@ def cmd_run(args):
     from .io import SnapshotWriter
     from .scenes.base import RunContext, get_scene
 
+    _load_scene_modules(args.scene_module)
     scene = get_scene(args.scene)
     sets = _parse_sets(args.set)
     if args.materials is not None:  # sugar for --set materials_file=FILE
@@ -89,7 +118,10 @@ def cmd_run(args):
         if "materials_file" in sets:
             raise ValueError("--materials: also given as --set materials_file; give one")
         sets["materials_file"] = args.materials
-    values = scene.resolve(sets)
+    from .util.memory import max_memory
+
+    with max_memory(args.max_memory):  # the scenes' size bounds compare with it
+        values = scene.resolve(sets)
     # checked before the run: a case that cannot be written would be lost after all its work
     _check_out(args.out, suffix=".nc")
     out = Path(args.out)
@@ -102,10 +134,14 @@ def cmd_run(args):
                              f"beside it), got {args.snapshots!r}")
         _check_out(args.snapshots, key="--snapshots")
         _check_out(Path(args.snapshots).with_suffix(".xdmf"), key="--snapshots")
+    elif args.snapshot_contacts:
+        raise ValueError("--snapshot-contacts: needs --snapshots (the contacts are written in "
+                         "its frames)")
     threads = _threads(args.threads)
     snapshots = SnapshotWriter(args.snapshots, dim=values.get("dim", 3)) if args.snapshots else None
     ctx = RunContext(progress=not args.quiet, snapshots=snapshots, threads=threads,
-                     checkpoint_every=args.checkpoint_every)
+                     checkpoint_every=args.checkpoint_every,
+                     snapshot_contacts=args.snapshot_contacts)
     try:
         _, provenance = scene.run(values, ctx, out=out)
     finally:
@@ -114,22 +150,48 @@ def cmd_run(args):
     if not args.quiet:
         print(f"[millsim] wrote {out} ({provenance['steps']} steps, dt = {provenance['dt']:.4g} s, "
               f"{provenance['wall_time_s']:.1f} s)", file=sys.stderr)
+    if snapshots is not None and snapshots.failure is not None:
+        # the case is written; the snapshots asked for are not, which the exit code says
+        print(f"millsim: error: --snapshots: {snapshots.failure}; snapshots removed, the case "
+              f"{out} is written", file=sys.stderr)
+        return 2
     return 0
 
 
 def cmd_info(args):
+    """Describe any netCDF file millsim writes: a case (provenance, parameters), an aggregate
+    (the cases stacked and the values they were stacked over) or an analysis output; then its
+    variables."""
+    import json
+
     from .io import case_parameters, read_case
 
-    ds = read_case(args.file, scene="*")
+    ds = read_case(args.file)
     a = ds.attrs
+    is_case = "scene" in a and "parameters_json" in a
+    if not (is_case or "millsim_version" in a or str(a.get("title", "")).startswith("millsim")):
+        raise ValueError(f"{args.file}: not a millsim file (no scene, millsim_version or millsim "
+                         "title; `millsim run`, `aggregate` and `analyse` write them)")
     print(f"{args.file}")
+    if not is_case:
+        kind = "aggregate" if "stacked_over" in a else "analysis output"
+        print(f"  {'kind':16s} {kind}: {a.get('title', '')}")
     for key in ("scene", "millsim_version", "engine_hash", "seed", "dt", "steps", "wall_time_s",
                 "created_utc"):
         if key in a:
             print(f"  {key:16s} {a[key]}")
-    print("  parameters:")
-    for key, value in case_parameters(ds).items():
-        print(f"    {key} = {value}")
+    if is_case:
+        print("  parameters:")
+        for key, value in case_parameters(ds).items():
+            print(f"    {key} = {value}")
+    if "source_cases" in a:
+        print(f"  {'cases':16s} {len(json.loads(a['source_cases']))}")
+    if "stacked_over" in a:
+        print("  stacked over:")
+        for name in json.loads(a["stacked_over"]):
+            values = ", ".join(f"{v:g}" if isinstance(v, float) else str(v)
+                               for v in ds[name].values.tolist()) if name in ds.coords else "?"
+            print(f"    {name} = {values}")
     print("  variables:")
     for name, var in ds.data_vars.items():
         shape = "x".join(str(n) for n in var.shape) or "scalar"
@@ -143,6 +205,7 @@ def cmd_aggregate(args):
     from .io import write_netcdf
     from .scenes.base import get_scene
 
+    _load_scene_modules(args.scene_module)
     scene = get_scene(args.scene)
     _check_out(args.out, args.cases, ".nc")
     # the scene declares each parameter once; its units label the stacking coordinates
@@ -217,11 +280,13 @@ def cmd_accuracy_aggregate(args):
     _check_out(args.out, args.tables, ".nc")
     if args.summary:
         _check_out(args.summary, args.tables, key="--summary")
-    cases = accuracy.read_tables(args.tables)
+    _distinct({"--out": args.out, "--summary": args.summary})
     links = {tuple(k.split("/", 1)): v for k, v in _parse_sets(args.reference, "--reference").items()}
     decide = {k: v.split(",") for k, v in _parse_sets(args.decide, "--decide").items()}
-    ds, text = accuracy.study(cases, args.tolerance, links, _parse_sets(args.method, "--method"), decide,
-                              args.limit_fraction, args.config_json)
+    methods = _parse_sets(args.method, "--method")
+    cases = accuracy.read_tables(args.tables)
+    ds, text = accuracy.study(cases, args.tolerance, links, methods, decide, args.limit_fraction,
+                              args.config_json)
     write_netcdf(args.out, ds)
     if args.summary:
         with atomic_target(args.summary) as tmp:
@@ -245,8 +310,10 @@ def cmd_stirred_friction(args):
     from .analysis import stirred_mill as sm
 
     inputs = [*args.cases, args.reference]
-    for key, out in (("--table", args.table), ("--summary", args.summary), ("--choice", args.choice)):
+    outputs = {"--table": args.table, "--summary": args.summary, "--choice": args.choice}
+    for key, out in outputs.items():
         _check_out(out, inputs, key=key)
+    _distinct(outputs)
     table, summary, choice = sm.calibrate_friction(sm.case_table(args.cases),
                                                    sm.read_reference(args.reference))
     _write_csv(args.table, table)
@@ -259,8 +326,10 @@ def cmd_stirred_viscosity(args):
     from .analysis import stirred_mill as sm
 
     inputs = [*args.cases, args.reference, args.friction]
-    for key, out in (("--table", args.table), ("--choice", args.choice)):
+    outputs = {"--table": args.table, "--choice": args.choice}
+    for key, out in outputs.items():
         _check_out(out, inputs, key=key)
+    _distinct(outputs)
     friction = _read_json(args.friction, "friction")["friction"]
     cases = sm.case_table(args.cases)
     table, choice = sm.calibrate_viscosity(cases, sm.read_reference(args.reference), friction,
@@ -315,6 +384,7 @@ def cmd_report(args):
                           *(args.calibration or ())) if p]
     for key, out in outputs.items():
         _check_out(out, inputs, key=key)
+    _distinct(outputs)
     summary = report.summarise(args.ballmill, args.forcechain, args.bed, args.tavares,
                                args.stirred, args.calibration,
                                command=shlex.join(["millsim", *sys.argv[1:]]))
@@ -331,6 +401,17 @@ def cmd_verdicts(args):
 
     summary = _read_json(args.summary, "verdicts")
     print("\n".join(report.verdict_lines(summary)))
+
+
+def cmd_evidence(args):
+    """List the stale results pages; exit status 0 whatever they say (a stale page is a result to
+    read), 2 for a folder that is not there."""
+    from .analysis import evidence
+
+    result = evidence.evidence(args.docs)
+    if args.json:
+        _write_json(args.json, result)
+    print("\n".join(evidence.lines(result)))
 
 
 def _analyse_parser(sub):
@@ -403,6 +484,11 @@ def _analyse_parser(sub):
     p.set_defaults(func=cmd_tavares_summary)
 
 
+SCENE_MODULE_HELP = ("a scene of your own: a .py file or an importable module that registers "
+                     "it (repeatable; examples/my_scene.py); installed packages can instead name "
+                     "it in the entry-point group millsim.scenes")
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="millsim", description="DEM parameter studies of mills and breakage (numba engine).")
@@ -411,35 +497,47 @@ def build_parser():
 
     p = sub.add_parser("scenes", help="list scenes, or the parameters of one")
     p.add_argument("name", nargs="?", help="scene to describe")
+    p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
     p.set_defaults(func=cmd_scenes)
 
     p = sub.add_parser("run", help="run one case and write it as netCDF")
     p.add_argument("scene", help="scene name (see `millsim scenes`)")
+    p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--out", required=True, help="output case file (.nc)")
     p.add_argument("--materials", metavar="FILE", help="materials file of the scenes that take "
                    "one (bed_impact, single_particle): --set materials_file=FILE")
     p.add_argument("--snapshots", help="optional particle snapshots (.h5 or .hdf5, with an .xdmf "
-                   "sidecar of the same name)")
+                   "sidecar of the same name for ParaView), with the walls of every frame")
+    p.add_argument("--snapshot-contacts", action="store_true",
+                   help="also write the touching particle pairs of every snapshot frame: a "
+                        "segment between the centres with the contact point, normal and "
+                        "tangential force (force chains in ParaView); not with breakage")
     p.add_argument("--threads", type=int, default=None,
                    help="threads of the compiled step loop (default, and at most: all numba has; "
                         "more is said on stderr and runs on those); systems of fewer than 2000 "
-                        "particles run on one thread, which is faster there (bench/RESULTS.md, "
-                        "serial fallback); results are identical either way")
+                        "particles run on one thread, which is faster there (docs/engine.md, "
+                        "\"Determinism and threads\"); results are identical either way")
     p.add_argument("--checkpoint-every", type=float, default=600.0, metavar="SECONDS",
                    help="save the running case to OUT.ckpt at most this often (wall time; 0: "
                         "save none); the same command resumes from it after an interruption, "
                         "with the same result, and removes it when the case is written; not "
                         "with --snapshots (default: 600)")
+    p.add_argument("--max-memory", metavar="SIZE",
+                   help="memory the case may use (16G, 500M; default: the smallest of RAM, "
+                        "cgroup, SLURM_MEM_PER_NODE or _PER_CPU, MILLSIM_MAX_MEMORY): a "
+                        "count or grid parameter needing more is refused before the run")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("info", help="describe a case file")
+    p = sub.add_parser("info", help="describe a millsim netCDF file: a case, an aggregate or an "
+                       "analysis output")
     p.add_argument("file")
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("aggregate", help="stack case files along their swept parameters (netCDF)")
     p.add_argument("scene", help="scene the cases belong to")
+    p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
     p.add_argument("cases", nargs="+", help="case files (.nc)")
     p.add_argument("--over", action="append", metavar="KEY",
                    help="parameter to stack along (repeatable; default: those that differ)")
@@ -476,6 +574,13 @@ def build_parser():
                        "first (exit status 0 whatever they say; 2 for an unreadable summary)")
     p.add_argument("summary", help="summary JSON of `millsim report`")
     p.set_defaults(func=cmd_verdicts)
+
+    p = sub.add_parser("evidence", help="the results pages (docs/results) computed with another "
+                       "engine than today's (millsim.provenance_hash()), and how many are current")
+    p.add_argument("--docs", default="docs/results", help="folder of results pages (*.md; "
+                   "default: docs/results)")
+    p.add_argument("--json", help="also write the list (JSON)")
+    p.set_defaults(func=cmd_evidence)
     return parser
 
 

@@ -1,7 +1,7 @@
 """netCDF output (one writer for cases, aggregates and analysis results), optional particle
-snapshots (HDF5 + XDMF) and the checkpoints of running cases (pickle); the readers of the later
-stages (cases, aggregates, CSV tables, snapshots), which refuse a missing, empty, truncated or
-foreign file with one line naming it.
+snapshots (HDF5 + XDMF) and the checkpoints of running cases (data only, no pickle:
+:mod:`millsim.util.checkpoint`); the readers of the later stages (cases, aggregates, CSV tables,
+snapshots), which refuse a missing, empty, truncated or foreign file with one line naming it.
 
 All quantities are SI; every variable carries a CF-style ``units`` attribute ("1" when
 dimensionless). A case's provenance goes into global attributes so that a case file alone says
@@ -17,18 +17,17 @@ intervals (the ball mill's size classes), whose bounds variable inherits the coo
 
 from __future__ import annotations
 
+import errno
 import glob
 import json
 import operator
 import os
-import pickle
 import platform
 import shlex
 import sys
 import tempfile
 import time
 import uuid
-import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -42,8 +41,10 @@ import xarray as xr
 
 import millsim
 
+from .util import checkpoint
+
 __all__ = ["write_netcdf", "write_case", "read_case", "read_table", "case_parameters",
-           "atomic_target", "check_writable", "open_snapshots", "SnapshotWriter",
+           "atomic_target", "check_writable", "WriteError", "open_snapshots", "SnapshotWriter",
            "write_checkpoint", "read_checkpoint"]
 
 # key -> coercion; coercing also rejects e.g. a float seed instead of silently truncating it
@@ -87,23 +88,122 @@ def check_writable(path: str | os.PathLike[str], key: str | None = None) -> None
     os.unlink(probe)
 
 
+class WriteError(OSError):
+    """An output that could not be written, in one line naming the file and the cause (disk full,
+    quota, permission, read-only filesystem); ``errno`` is the cause's."""
+
+
+# what a user can act on, by errno
+_WRITE_CAUSES = {
+    errno.ENOSPC: "disk full (no space left on device)",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "read-only filesystem",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+    errno.EFBIG: "file too large for the filesystem",
+}
+
+# A failed writer that reports no usable errno (netCDF4: "NetCDF: HDF error", or even "Permission
+# denied" on a full disk) is diagnosed by reserving this much beyond what it needs in its directory.
+_PROBE_MARGIN = 256 * 1024
+_PROBE_MAX = 64 * 1024**2  # reserving more would fill a tmpfs's RAM or take long where emulated
+
+
+def _free_bytes(directory: Path) -> int | None:
+    try:
+        st = os.statvfs(directory)
+    except (OSError, AttributeError):  # no statvfs (Windows)
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+def _bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB"):
+        if n < 1000 or unit == "GB":
+            return f"{n:.3g} {unit}"
+        n /= 1000
+
+
+def _write_error(path: Path, code: int, need: int = 0) -> WriteError:
+    cause = _WRITE_CAUSES.get(code) or os.strerror(code)
+    free = _free_bytes(path.parent) if code in (errno.ENOSPC, errno.EDQUOT) else None
+    if free is not None:
+        cause += f": {_bytes(free)} free in {path.parent}"
+        cause += f", at least {_bytes(need)} needed" if need > free else ""
+    error = WriteError(f"cannot write {path}: {cause}")
+    error.errno = code
+    return error
+
+
+def _probe_space(directory: Path, need: int) -> int | None:
+    """The errno of reserving ``need`` bytes in ``directory`` (None: it fits)."""
+    free = _free_bytes(directory)
+    if free is not None and need > free:
+        return errno.ENOSPC
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".millsim.", suffix=".probe", dir=directory)
+    except OSError as exc:
+        return exc.errno
+    try:
+        os.posix_fallocate(fd, 0, max(1, min(need, _PROBE_MAX)))
+    except OSError as exc:
+        return exc.errno if exc.errno in _WRITE_CAUSES else None
+    except AttributeError:  # no posix_fallocate (macOS): statvfs said it fits
+        return None
+    finally:
+        os.close(fd)
+        os.unlink(probe)
+    return None
+
+
+def _write_failure(path: Path, exc: BaseException, need: int) -> WriteError | None:
+    """The one-line WriteError of a writer of ``path`` that raised ``exc``, or None when the
+    failure is not the filesystem's (then ``exc`` stands)."""
+    code = getattr(exc, "errno", None)
+    if code in (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG):
+        return _write_error(path, code, need)
+    # netCDF4/HDF5 hide the errno (or give a wrong one): ask the directory itself
+    found = _probe_space(path.parent, need + _PROBE_MARGIN) if path.parent.is_dir() else None
+    if found in _WRITE_CAUSES:
+        return _write_error(path, found, need)
+    if code in _WRITE_CAUSES:
+        return _write_error(path, code, need)
+    return None
+
+
 @contextmanager
-def atomic_target(path: str | os.PathLike[str]) -> Iterator[Path]:
+def atomic_target(path: str | os.PathLike[str], size: int = 0) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; move it onto ``path`` only if the block succeeds.
 
     Same directory so that os.replace is an atomic rename on one filesystem; same suffix so that
     writers that pick the format by it (matplotlib) write the right one. The name is only
     reserved, not created, so the writer creates the file with the usual umask permissions. The
     temporary files of earlier writers of ``path`` that were killed are removed first.
+
+    A write that fails for the filesystem's sake (disk full, quota, permission, read-only) raises
+    :class:`WriteError`, one line naming ``path`` and the cause, and leaves no file. ``size``: the
+    bytes the file will take, where known; less free space than that is refused before writing.
     """
     path = Path(path)
     check_writable(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    _remove_stale(path)
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp{path.suffix}")
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        _remove_stale(path)
+        free = _free_bytes(path.parent)
+        if free is not None and size > free:
+            raise _write_error(path, errno.ENOSPC, size)
         yield tmp
         os.replace(tmp, path)
+    except WriteError:
+        raise
+    except (OSError, RuntimeError) as exc:  # netCDF4 raises RuntimeError("NetCDF: HDF error")
+        written = tmp.stat().st_size if tmp.exists() else 0
+        tmp.unlink(missing_ok=True)  # first: its space counts as free for the diagnosis
+        failure = _write_failure(path, exc, max(size, written))
+        if failure is None:
+            raise
+        raise failure from None
     finally:
         tmp.unlink(missing_ok=True)
 
@@ -254,7 +354,8 @@ def write_netcdf(path: str | os.PathLike[str], data: xr.Dataset,
         "history": history,
         "Conventions": "CF-1.8",
     }
-    with atomic_target(path) as tmp:
+    # the data uncompressed, as netCDF4 writes it, plus its header and attributes
+    with atomic_target(path, size=ds.nbytes + len(json.dumps(ds.attrs, default=str))) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4")
     return path
 
@@ -336,189 +437,48 @@ def open_snapshots(path: str | os.PathLike[str]) -> Iterator[h5py.Group]:
         yield f["frames"]
 
 
-class _CheckpointPickler(pickle.Pickler):
-    """Refuses anything of numba's: compiled functions are rebuilt on load, never saved (pickled,
-    a dispatcher would carry its code by value and recompile)."""
-
-    def reducer_override(self, obj: Any) -> Any:
-        if type(obj).__module__.split(".")[0] == "numba":
-            raise TypeError(f"checkpoint: {type(obj).__name__} {obj!r:.60} would be pickled; drop "
-                            "it in its owner's __getstate__")
-        return NotImplemented
+def _checkpoint_header(key: dict[str, Any]) -> dict[str, Any]:
+    """``key`` and this process's software versions and engine hash, as JSON reads them back."""
+    return json.loads(json.dumps({**key, **_software_attrs()}, default=_json_default))
 
 
-def write_checkpoint(path: str | os.PathLike[str], key: dict[str, Any], state: Any) -> Path:
-    """Pickle ``state`` to ``path`` atomically, after a header of ``key`` (what the state belongs
-    to, e.g. scene and parameters) and the software versions and engine hash of this process."""
+def write_checkpoint(path: str | os.PathLike[str], key: dict[str, Any], state: Any,
+                     packages: tuple[str, ...] = ()) -> Path:
+    """Save ``state`` to ``path`` atomically (format: :mod:`millsim.util.checkpoint`), under a
+    header of ``key`` (what the state belongs to, e.g. scene and parameters) and the software
+    versions and engine hash of this process; ``packages``: those outside millsim whose classes
+    the state holds (a user's scene)."""
     path = Path(path)
     with atomic_target(path) as tmp:
-        with open(tmp, "wb") as fh:
-            pickle.dump({**key, **_software_attrs()}, fh, protocol=pickle.HIGHEST_PROTOCOL)
-            _CheckpointPickler(fh, protocol=pickle.HIGHEST_PROTOCOL).dump(state)
-            fh.flush()
-            os.fsync(fh.fileno())  # the rename must not land before the data
+        checkpoint.write(tmp, _checkpoint_header(key), state, packages)
     return path
 
 
-def read_checkpoint(path: str | os.PathLike[str], key: dict[str, Any]) -> Any:
+def read_checkpoint(path: str | os.PathLike[str], key: dict[str, Any],
+                    packages: tuple[str, ...] = ()) -> Any:
     """The state :func:`write_checkpoint` saved at ``path`` under ``key`` and this process's
-    software and engine hash; ValueError naming the difference when it was saved under others."""
-    expected = {**key, **_software_attrs()}
-    with open(path, "rb") as fh:
-        try:
-            header = pickle.load(fh)
-        except Exception as exc:  # anything pickle raises: a file that is not a checkpoint
-            raise ValueError(f"not a checkpoint ({type(exc).__name__}: {exc})") from None
-        if not isinstance(header, dict):
-            raise ValueError("not a checkpoint (no header)")
+    software and engine hash; ValueError naming the difference when it was saved under others
+    (checked on the header, before the state is read)."""
+    expected = _checkpoint_header(key)
+
+    def check(header: dict[str, Any]) -> None:
+        def same(a: Any, b: Any) -> bool:  # as JSON text: NaN equals NaN
+            return json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+
+        header = {k: v for k, v in header.items() if k not in ("format", "version")}
         differ = sorted(k for k in expected.keys() | header.keys()
-                        if k != "parameters" and header.get(k) != expected.get(k))
+                        if k != "parameters" and not same(header.get(k), expected.get(k)))
         params, theirs = expected.get("parameters", {}), header.get("parameters", {})
+        if not isinstance(theirs, dict):
+            raise ValueError("not a checkpoint (parameters are no mapping)")
         differ += [f"parameter {k}" for k in sorted(params.keys() | theirs.keys())
-                   if params.get(k) != theirs.get(k)]
+                   if not same(params.get(k), theirs.get(k))]
         if differ:
             raise ValueError(f"written under another {', '.join(differ)}")
-        try:
-            return pickle.load(fh)
-        except Exception as exc:  # same code and versions: only a damaged file gets here
-            raise ValueError(f"unreadable ({type(exc).__name__}: {exc})") from None
+
+    return checkpoint.read(path, check, packages)
 
 
-# XDMF names integer types of one byte Char/UChar and all others Int/UInt
-_XDMF_NUMBER_TYPES = {("f", 4): "Float", ("f", 8): "Float", ("i", 1): "Char", ("u", 1): "UChar"}
-_XDMF_NUMBER_TYPES.update({("i", n): "Int" for n in (2, 4, 8)})
-_XDMF_NUMBER_TYPES.update({("u", n): "UInt" for n in (2, 4, 8)})
-
-_SNAPSHOT_UNITS = {"position": "m", "radius": "m", "velocity": "m/s"}
-
-
-class SnapshotWriter:
-    """Particle snapshots to HDF5, one group per frame, plus an XDMF sidecar for ParaView.
-
-    Frames live under ``/frames/NNNNNN`` with datasets position (N x 3, m), radius (N, m),
-    velocity (N x 3, m/s) and any extra per-particle fields; N may differ between frames.
-    In 2-D (``dim=2``) vectors are given as N x 2 and padded with zeros, since XDMF XYZ geometry
-    and Vector attributes need three components. The files are created with the first frame, so
-    that a run refused before it starts leaves none; the XDMF file is written on close().
-    """
-
-    def __init__(self, path_h5: str | os.PathLike[str], dim: int):
-        if dim not in (2, 3):
-            raise ValueError(f"dim must be 2 or 3, got {dim}")
-        self.path = Path(path_h5)
-        self.xdmf_path = self.path.with_suffix(".xdmf")
-        self.dim = dim
-        self._file: h5py.File | None = None
-        self._closed = False
-
-    def _open(self) -> None:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = h5py.File(self.path, "w")
-        self._file.attrs["dim"] = self.dim
-        self._file.attrs["time_units"] = "s"
-        self._frames = self._file.create_group("frames")
-
-    def __enter__(self) -> SnapshotWriter:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        # also on error: the frames written so far are what one wants to look at
-        self.close()
-
-    def _per_particle(self, name: str, value: Any, count: int) -> np.ndarray:
-        array = np.asarray(value)
-        if array.dtype.kind == "b":
-            array = array.astype(np.uint8)
-        if array.shape == (count, self.dim):
-            array = np.pad(array, ((0, 0), (0, 3 - self.dim)))
-        if array.shape not in ((count,), (count, 3)):
-            expected = f"({count},) or ({count}, {self.dim})"
-            raise ValueError(f"{name}: shape {array.shape}, expected {expected}")
-        if (array.dtype.kind, array.dtype.itemsize) not in _XDMF_NUMBER_TYPES:
-            raise ValueError(f"{name}: dtype {array.dtype} has no XDMF number type")
-        return array
-
-    def write(self, time: float, position: Any, radius: Any, velocity: Any, **fields: Any) -> None:
-        """Append one frame at ``time`` (s). Extra fields are arrays of shape (N,) or (N, dim)."""
-        if self._closed:
-            raise ValueError("SnapshotWriter is closed")
-        if self._file is None:
-            self._open()
-        radius = np.asarray(radius, dtype=np.float64)
-        if radius.ndim != 1:
-            raise ValueError(f"radius: shape {radius.shape}, expected (N,)")
-        count = len(radius)
-        arrays = {
-            "position": self._per_particle("position", np.asarray(position, np.float64), count),
-            "radius": self._per_particle("radius", radius, count),
-            "velocity": self._per_particle("velocity", np.asarray(velocity, np.float64), count),
-        }
-        for name in ("position", "velocity"):
-            if arrays[name].ndim != 2:
-                shape = arrays[name].shape
-                raise ValueError(f"{name}: shape {shape}, expected ({count}, {self.dim})")
-        for name, value in fields.items():
-            arrays[name] = self._per_particle(name, value, count)
-
-        group = self._frames.create_group(f"{len(self._frames):06d}")
-        group.attrs["time"] = float(time)
-        for name, array in arrays.items():
-            dataset = group.create_dataset(name, data=array)
-            if name in _SNAPSHOT_UNITS:
-                dataset.attrs["units"] = _SNAPSHOT_UNITS[name]
-        # flushed per frame so that a crashed run still leaves readable frames
-        self._file.flush()
-
-    def close(self) -> None:
-        self._closed = True
-        if self._file is None:
-            return
-        try:
-            self._write_xdmf()
-        finally:
-            self._file.close()
-            self._file = None
-
-    def _write_xdmf(self) -> None:
-        root = ET.Element("Xdmf", Version="3.0")
-        domain = ET.SubElement(root, "Domain")
-        series = ET.SubElement(
-            domain, "Grid", Name="particles", GridType="Collection", CollectionType="Temporal"
-        )
-        for frame_name, group in self._frames.items():
-            count = len(group["radius"])
-            grid = ET.SubElement(series, "Grid", Name=f"frame_{frame_name}", GridType="Uniform")
-            ET.SubElement(grid, "Time", Value=repr(float(group.attrs["time"])))
-            ET.SubElement(
-                grid,
-                "Topology",
-                TopologyType="Polyvertex",
-                NumberOfElements=str(count),
-                NodesPerElement="1",
-            )
-            geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
-            self._data_item(geometry, group["position"])
-            for name, dataset in group.items():
-                if name == "position":
-                    continue
-                kind = "Scalar" if dataset.ndim == 1 else "Vector"
-                attribute = ET.SubElement(
-                    grid, "Attribute", Name=name, AttributeType=kind, Center="Node"
-                )
-                self._data_item(attribute, dataset)
-
-        ET.indent(root)
-        with atomic_target(self.xdmf_path) as tmp:
-            ET.ElementTree(root).write(tmp, encoding="utf-8", xml_declaration=True)
-
-    def _data_item(self, parent: ET.Element, dataset: h5py.Dataset) -> None:
-        item = ET.SubElement(
-            parent,
-            "DataItem",
-            Dimensions=" ".join(map(str, dataset.shape)),
-            NumberType=_XDMF_NUMBER_TYPES[dataset.dtype.kind, dataset.dtype.itemsize],
-            Precision=str(dataset.dtype.itemsize),
-            Format="HDF",
-        )
-        # relative file name: the XDMF reader resolves it against the XDMF file's directory
-        item.text = f"{self.path.name}:{dataset.name}"
+# the snapshot writer lives in util.snapshots (with the walls and contacts grids); imported
+# here, at the end, because it uses atomic_target of this module
+from .util.snapshots import SNAPSHOT_UNITS, SnapshotWriter  # noqa: E402, F401

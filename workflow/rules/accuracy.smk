@@ -5,8 +5,9 @@
 # Config block `accuracy` (config/config.yaml): per scene name (ballmill, single_particle,
 # bed_impact, stirred_mill) fixed `parameters`, `seed` (repeated at every step), and `series`:
 # each series sets a few parameters (`set`, e.g. the integrator or eta) and sweeps one step
-# parameter (`ladder`: dt or dt_factor); `reference: <series>` compares it with
-# another series' converged value (Verlet against Gear). Cases, one `millsim run` each, cached:
+# parameter (`ladder`: dt_factor, which moves with the engine's limit, or dt in seconds, which a
+# moved limit can leave above it); `reference: <series>` compares it with another series'
+# converged value (Verlet against Gear). Cases, one `millsim run` each, cached:
 #   results/cases/accuracy_<name>_<series>/<ladder>~<v>/seed~<s>/case.nc
 # then one table per series (results/accuracy/<name>/<series>.csv), the aggregate
 # results/aggregate/accuracy.nc (+ results/accuracy/summary.md), and one figure per scene
@@ -60,18 +61,19 @@ def accuracy_tables():
 
 
 def accuracy_options():
-    """`aggregate` options: borrowed references, reference methods, deciding observables."""
+    """`aggregate` options: borrowed references, reference methods, deciding observables; each
+    value shell-quoted (series names come from the config)."""
     opts = []
     for name in ACCURACY_NAMES:
         block = ACCURACY[name]
         for series, spec in block["series"].items():
             if spec.get("reference"):
-                opts.append(f"--reference {name}/{series}={spec['reference']}")
+                opts += ["--reference", f"{name}/{series}={spec['reference']}"]
         if block.get("extrapolation"):
-            opts.append(f"--method {name}={block['extrapolation']}")
+            opts += ["--method", f"{name}={block['extrapolation']}"]
         if block.get("decide_on"):
-            opts.append(f"--decide {name}={','.join(block['decide_on'])}")
-    return " ".join(opts)
+            opts += ["--decide", f"{name}={','.join(block['decide_on'])}"]
+    return shlex.join(opts)
 
 
 def accuracy_targets():
@@ -104,15 +106,17 @@ for _study, (_name, _series, _scene, _ladder) in ACCURACY_STUDIES.items():
             case=case_file(_study),
         log:
             case_log(f"simulate_{_study}", _study),
-        cache: True
+        cache: CACHE
+        conda:
+            MILLSIM_ENV
         threads: 1
         params:
             scene=_scene,
             sets=case_sets(_study),
             engine=ENGINE,
         shell:
-            "millsim run {params.scene} {params.sets} --threads {threads} --out {output.case}"
-            " > {log} 2>&1"
+            "millsim run {params.scene:q} {params.sets} --threads {threads} --out {output.case:q}"
+            " > {log:q} 2>&1"
 
 
 rule accuracy_collect:
@@ -124,11 +128,13 @@ rule accuracy_collect:
         "results/logs/accuracy_collect/{subject}/{series}.log",
     wildcard_constraints:
         subject="|".join(ACCURACY_NAMES) or "none",
+    conda:
+        MILLSIM_ENV
     params:
         ladder=lambda wc: ACCURACY_STUDIES[f"accuracy_{wc.subject}_{wc.series}"][3],
     shell:
-        "millsim analyse accuracy collect {input.cases} --name {wildcards.subject}"
-        " --series {wildcards.series} --ladder {params.ladder} --out {output} > {log} 2>&1"
+        "millsim analyse accuracy collect {input.cases:q} --name {wildcards.subject:q}"
+        " --series {wildcards.series:q} --ladder {params.ladder:q} --out {output:q} > {log:q} 2>&1"
 
 
 rule aggregate_accuracy:
@@ -139,16 +145,18 @@ rule aggregate_accuracy:
         summary="results/accuracy/summary.md",
     log:
         "results/logs/aggregate_accuracy.log",
+    conda:
+        MILLSIM_ENV
     params:
         tolerance=ACCURACY_TOLERANCE,
         limit_fraction=ACCURACY_LIMIT_FRACTION,
         options=accuracy_options(),
         config=shlex.quote(json.dumps(ACCURACY, sort_keys=True)),
     shell:
-        "millsim analyse accuracy aggregate {input} --tolerance {params.tolerance}"
-        " --limit-fraction {params.limit_fraction} {params.options}"
-        " --config-json {params.config} --out {output.data}"
-        " --summary {output.summary} > {log} 2>&1"
+        "millsim analyse accuracy aggregate {input:q} --tolerance {params.tolerance:q}"
+        " --limit-fraction {params.limit_fraction:q} {params.options}"
+        " --config-json {params.config} --out {output.data:q}"
+        " --summary {output.summary:q} > {log:q} 2>&1"
 
 
 # one figure per name, of the registry's family error_vs_runtime_{name}
@@ -188,10 +196,13 @@ rule plot_accuracy:
         "results/logs/plot_accuracy/{subject}.log",
     wildcard_constraints:
         subject="|".join(ACCURACY_NAMES) or "none",
+    conda:
+        MILLSIM_ENV
     params:
         caption=accuracy_caption,
     shell:
-        "millsim plot error_vs_runtime_{wildcards.subject} {input} --out {output} > {log} 2>&1"
+        "millsim plot error_vs_runtime_{wildcards.subject:q} {input:q} --out {output:q}"
+        " > {log:q} 2>&1"
 
 
 rule accuracy:

@@ -1,9 +1,8 @@
 # Ball mill 2D (Buchholtz et al. 2000): comminution rate vs rotation speed, fragment sizes, fracture
 # and pressure maps, force chains, and animated cases. Every case is one `millsim run ballmill2d`.
 #
-# `snakemake --lint` asks for a conda env or container per rule: every rule runs the `millsim`
-# installed with this workflow's own Python (see common.smk), so there is no second environment
-# to declare.
+# Every rule names the workflow's one conda environment (MILLSIM_ENV, common.smk), used with
+# `--use-conda`; without it the rules run the `millsim` of the Python that runs Snakemake.
 
 
 localrules:
@@ -20,13 +19,16 @@ rule simulate_ballmill:
         case=case_file("ballmill"),
     log:
         case_log("simulate_ballmill", "ballmill"),
-    cache: True
+    cache: CACHE
+    conda:
+        MILLSIM_ENV
     threads: 1
     params:
         sets=case_sets("ballmill"),
         engine=ENGINE,
     shell:
-        "millsim run ballmill2d {params.sets} --threads {threads} --out {output.case} > {log} 2>&1"
+        "millsim run ballmill2d {params.sets} --threads {threads} --out {output.case:q}"
+        " > {log:q} 2>&1"
 
 
 use rule simulate_ballmill as simulate_ballmill_forcechain with:
@@ -34,7 +36,7 @@ use rule simulate_ballmill as simulate_ballmill_forcechain with:
         case=case_file("ballmill_forcechain"),
     log:
         case_log("simulate_ballmill_forcechain", "ballmill_forcechain"),
-    cache: True  # not inherited
+    cache: CACHE  # not inherited
     params:
         sets=case_sets("ballmill_forcechain"),
         engine=ENGINE,
@@ -47,14 +49,16 @@ rule simulate_ballmill_snapshots:
         xdmf=case_file("ballmill_animation", "snapshots.xdmf"),
     log:
         case_log("simulate_ballmill_snapshots", "ballmill_animation"),
-    cache: True
+    cache: CACHE
+    conda:
+        MILLSIM_ENV
     threads: 1
     params:
         sets=case_sets("ballmill_animation"),
         engine=ENGINE,
     shell:
-        "millsim run ballmill2d {params.sets} --threads {threads} --out {output.case}"
-        " --snapshots {output.snapshots} > {log} 2>&1"
+        "millsim run ballmill2d {params.sets} --threads {threads} --out {output.case:q}"
+        " --snapshots {output.snapshots:q} > {log:q} 2>&1"
 
 
 rule aggregate_ballmill:
@@ -64,10 +68,12 @@ rule aggregate_ballmill:
         "results/aggregate/ballmill.nc",
     log:
         "results/logs/aggregate_ballmill.log",
+    conda:
+        MILLSIM_ENV
     params:
         over=stack_over("ballmill"),
     shell:
-        "millsim aggregate ballmill2d {input.cases} {params.over} --out {output} > {log} 2>&1"
+        "millsim aggregate ballmill2d {input.cases:q} {params.over} --out {output:q} > {log:q} 2>&1"
 
 
 use rule aggregate_ballmill as aggregate_ballmill_forcechain with:
@@ -99,10 +105,12 @@ rule plot_ballmill:
         "results/logs/plot_ballmill/{figure}.log",
     wildcard_constraints:
         figure="|".join(BALLMILL_FIGURES),
+    conda:
+        MILLSIM_ENV
     params:
         caption=figure_caption,
     shell:
-        "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
+        "millsim plot {wildcards.figure:q} {input:q} --out {output:q} > {log:q} 2>&1"
 
 
 rule animate_ballmill:
@@ -117,10 +125,12 @@ rule animate_ballmill:
         ),
     log:
         case_log("animate_ballmill", "ballmill_animation"),
+    conda:
+        MILLSIM_ENV
     params:
         caption=PLOTS["animation"].caption,
     shell:
-        "millsim plot animation {input} --out {output} > {log} 2>&1"
+        "millsim plot animation {input:q} --out {output:q} > {log:q} 2>&1"
 
 
 # `snakemake --cores 2 ballmill`: this scene's part of `rule all` alone.

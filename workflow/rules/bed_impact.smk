@@ -49,13 +49,16 @@ rule simulate_bed_impact:
         case=case_file("bed_impact"),
     log:
         case_log("simulate_bed_impact", "bed_impact"),
-    cache: True
+    cache: CACHE
+    conda:
+        MILLSIM_ENV
     threads: 1
     params:
         sets=case_sets("bed_impact"),
         engine=ENGINE,
     shell:
-        "millsim run bed_impact {params.sets} --threads {threads} --out {output.case} > {log} 2>&1"
+        "millsim run bed_impact {params.sets} --threads {threads} --out {output.case:q}"
+        " > {log:q} 2>&1"
 
 
 rule aggregate_bed_impact:
@@ -65,10 +68,12 @@ rule aggregate_bed_impact:
         "results/aggregate/bed_breakage.nc",
     log:
         "results/logs/aggregate_bed_impact.log",
+    conda:
+        MILLSIM_ENV
     params:
         over=" ".join(f"--over {k}" for k in BED_IMPACT_OVER),
     shell:
-        "millsim aggregate bed_impact {input.cases} {params.over} --out {output} > {log} 2>&1"
+        "millsim aggregate bed_impact {input.cases:q} {params.over} --out {output:q} > {log:q} 2>&1"
 
 
 rule plot_bed_impact:
@@ -85,10 +90,12 @@ rule plot_bed_impact:
         "results/logs/plot_bed_impact/{figure}.log",
     wildcard_constraints:
         figure="|".join(BED_IMPACT_FIGURES),
+    conda:
+        MILLSIM_ENV
     params:
         caption=figure_caption,
     shell:
-        "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
+        "millsim plot {wildcards.figure:q} {input:q} --out {output:q} > {log:q} 2>&1"
 
 
 def bed_impact_targets():

@@ -13,11 +13,13 @@ The figures and their captions come from the plot registry (`millsim plot --list
 is results/plots/NAME.png.
 """
 
+import atexit
 import json
 import os
 import shlex
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,8 +39,17 @@ os.environ.update(
     PATH=os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
 )
 
-# A simulate rule's param: Snakemake's code trigger does not see the imported package.
-ENGINE = millsim.provenance_hash()
+# A simulate rule's param: Snakemake's code trigger does not see the imported package. The
+# version too: `millsim aggregate` refuses cases of two versions, so a new one re-runs them.
+ENGINE = f"{millsim.provenance_hash()}-{millsim.__version__}"
+
+# The software of every rule under `--use-conda` (relative to the rule files); without it the
+# rules run the `millsim` beside this Python.
+MILLSIM_ENV = "../envs/millsim.yaml"
+
+# The simulate rules are cached between workflows only when `--cache` is given: marked always,
+# Snakemake said so in a line per rule on every run without it ("eligible for caching").
+CACHE = workflow.workflow_settings.cache is not None
 
 
 @dataclass(frozen=True)
@@ -110,6 +121,9 @@ def refuse_repeats(block, scene, values):
 
 def checked_study(block, scene, study):
     """``study`` once its scene has resolved every case (the parameter ranges live there)."""
+    cases = len(study.space.dataframe)
+    if cases >= 1000:  # ~2 ms a case: a large sweep takes a while before the first job
+        print(f"[millsim] config {block}: checking {cases} cases", file=sys.stderr, flush=True)
     # str() of each value, exactly as Paramspace writes it into the case path
     for row in study.space.dataframe.itertuples(index=False):
         try:
@@ -154,11 +168,43 @@ def check_step(study, sets):
     except ValueError as exc:
         raise WorkflowError(f"config {study}: {exc}") from None
     STEPS_CHECKED.add(key)
+    step_progress()
+
+
+# A sweep of thousands of cases builds each for the step check (1-7 s a case): progress on stderr
+# every STEP_PROGRESS_S, and the cache saved as often and at exit, not after every case (rewriting
+# the whole file per case grows as the square of the cases: hours for 20,000).
+STEP_PROGRESS_S = 30.0
+STEP_BUILDS = {"built": 0, "start": None, "said": 0.0}
+
+
+def save_step_checks():
     with atomic_target(STEP_CHECKS) as tmp:
         tmp.write_text(json.dumps(sorted(STEPS_CHECKED)))
     for old in STEP_CHECKS.parent.glob("step-checks-*.json"):
         if old != STEP_CHECKS:  # of other code versions
             old.unlink(missing_ok=True)
+
+
+def step_progress():
+    """Count one case built by check_step; say how far on stderr, save the cache."""
+    now = time.monotonic()
+    if STEP_BUILDS["start"] is None:
+        STEP_BUILDS.update(start=now, said=now)
+        atexit.register(save_step_checks)
+    STEP_BUILDS["built"] += 1
+    if now - STEP_BUILDS["said"] < STEP_PROGRESS_S:
+        return
+    STEP_BUILDS["said"] = now
+    save_step_checks()
+    built = STEP_BUILDS["built"]
+    cases = sum(len(study.space.dataframe) for study in STUDIES.values())
+    print(
+        f"[millsim] step check: {built} cases built ({(now - STEP_BUILDS['start']) / built:.2g} s "
+        f"each) of at most {cases}; kept in {STEP_CHECKS} for the next run",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 BALLMILL = config["ballmill"]

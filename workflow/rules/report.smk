@@ -28,14 +28,12 @@ def report_inputs(wildcards=None):
 
 
 def report_arguments(wildcards, input):
-    return " ".join(
-        (
-            f"--{option} {' '.join(getattr(input, option))}"
-            if option == "calibration"
-            else f"--{option} {getattr(input, option)}"
-        )
-        for option in report_inputs()
-    )
+    """The input options of `millsim report`, shell-quoted (the reference path is the config's)."""
+    args = []
+    for option in report_inputs():
+        value = getattr(input, option)
+        args += [f"--{option}", *(value if option == "calibration" else [value])]
+    return shlex.join(args)
 
 
 localrules:
@@ -50,10 +48,12 @@ rule report_summary:
         rst="results/report/landing.rst",
     log:
         "results/logs/report_summary.log",
+    conda:
+        MILLSIM_ENV
     params:
         args=report_arguments,
     shell:
-        "millsim report {params.args} --json {output.json} --rst {output.rst} > {log} 2>&1"
+        "millsim report {params.args} --json {output.json:q} --rst {output.rst:q} > {log:q} 2>&1"
 
 
 SCENE_TARGETS.append(lambda: [REPORT_SUMMARY])

@@ -48,13 +48,16 @@ rule simulate_single_particle_probability:
         case=case_file("single_particle_probability"),
     log:
         case_log("simulate_single_particle_probability", "single_particle_probability"),
-    cache: True
+    cache: CACHE
+    conda:
+        MILLSIM_ENV
     threads: 1
     params:
         sets=case_sets("single_particle_probability"),
         engine=ENGINE,
     shell:
-        "millsim run single_particle {params.sets} --threads {threads} --out {output.case} > {log} 2>&1"
+        "millsim run single_particle {params.sets} --threads {threads} --out {output.case:q}"
+        " > {log:q} 2>&1"
 
 
 use rule simulate_single_particle_probability as simulate_single_particle_repeated with:
@@ -62,7 +65,7 @@ use rule simulate_single_particle_probability as simulate_single_particle_repeat
         case=case_file("single_particle_repeated"),
     log:
         case_log("simulate_single_particle_repeated", "single_particle_repeated"),
-    cache: True  # not inherited
+    cache: CACHE  # not inherited
     params:
         sets=case_sets("single_particle_repeated"),
         engine=ENGINE,
@@ -73,7 +76,7 @@ use rule simulate_single_particle_probability as simulate_single_particle_fragme
         case=case_file("single_particle_fragmentation"),
     log:
         case_log("simulate_single_particle_fragmentation", "single_particle_fragmentation"),
-    cache: True  # not inherited
+    cache: CACHE  # not inherited
     params:
         sets=case_sets("single_particle_fragmentation"),
         engine=ENGINE,
@@ -86,8 +89,10 @@ rule aggregate_single_particle:
         "results/aggregate/tavares_verification.nc",
     log:
         "results/logs/aggregate_single_particle.log",
+    conda:
+        MILLSIM_ENV
     shell:
-        "millsim analyse tavares aggregate {input.cases} --out {output} > {log} 2>&1"
+        "millsim analyse tavares aggregate {input.cases:q} --out {output:q} > {log:q} 2>&1"
 
 
 rule plot_single_particle:
@@ -104,10 +109,12 @@ rule plot_single_particle:
         "results/logs/plot_single_particle/{figure}.log",
     wildcard_constraints:
         figure="|".join(TAVARES_FIGURES),
+    conda:
+        MILLSIM_ENV
     params:
         caption=figure_caption,
     shell:
-        "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
+        "millsim plot {wildcards.figure:q} {input:q} --out {output:q} > {log:q} 2>&1"
 
 
 def single_particle_targets():

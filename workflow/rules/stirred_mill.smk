@@ -10,6 +10,8 @@ import json
 
 import numpy as np
 
+from millsim.analysis.stirred_mill import DRY, read_reference
+
 STIRRED = config.get("stirred_mill")
 
 
@@ -64,6 +66,36 @@ if STIRRED:
         ["friction", "eta", "rpm"],
     )
     STIRRED_REFERENCE = _CAL["reference"]
+
+
+def checked_reference(path, rpms, eta_rpm):
+    """Refuse, before any job, a reference table the calibration could not use: read as its
+    stages read it, with rows, numbers in every row, a dry power at a stage-1 speed and a wet
+    fluid's power at the stage-2 speed (else it fails only after the calibration's cases ran)."""
+    try:
+        ref = read_reference(path)
+        if ref.empty:
+            raise ValueError(f"{path}: no rows")
+        blank = ref[["rpm", "eta_exp", "net_power", "net_power_ci"]].isna().any()
+        if blank.any():
+            raise ValueError(f"{path}: empty cells in column(s) {list(blank[blank].index)}")
+        dry = ref["fluid"] == DRY
+        if not np.isclose(ref.loc[dry, "rpm"].to_numpy()[:, None], rpms).any():
+            raise ValueError(
+                f"{path}: no row with fluid = {DRY!r} at a calibration speed {rpms} rpm "
+                "(stage 1 fits the friction to them)"
+            )
+        if not np.isclose(ref.loc[~dry, "rpm"], eta_rpm).any():
+            raise ValueError(
+                f"{path}: no wet fluid's row at eta_rpm = {eta_rpm} rpm (stage 2 fits each "
+                "fluid's viscosity there)"
+            )
+    except ValueError as exc:
+        raise ValueError(f"config stirred_mill: calibration: reference: {exc}") from None
+
+
+if STIRRED:
+    checked_reference(STIRRED_REFERENCE, _CAL["rpm"], _CAL["eta_rpm"])
 
 
 def stirred_case(friction, eta, rpm, seed=None):
@@ -148,14 +180,16 @@ if STIRRED:
             case=case_file("stirred_mill"),
         log:
             case_log("simulate_stirred_mill", "stirred_mill"),
-        cache: True
+        cache: CACHE
+        conda:
+            MILLSIM_ENV
         threads: 1
         params:
             sets=case_sets("stirred_mill"),
             engine=ENGINE,
         shell:
-            "millsim run stirred_mill {params.sets} --threads {threads} --out {output.case}"
-            " > {log} 2>&1"
+            "millsim run stirred_mill {params.sets} --threads {threads} --out {output.case:q}"
+            " > {log:q} 2>&1"
 
     rule aggregate_stirred_mill:
         input:
@@ -164,9 +198,11 @@ if STIRRED:
             "results/aggregate/stirred_mill.nc",
         log:
             "results/logs/aggregate_stirred_mill.log",
+        conda:
+            MILLSIM_ENV
         shell:
-            "millsim aggregate stirred_mill {input.cases} --over eta --over rpm --out {output}"
-            " > {log} 2>&1"
+            "millsim aggregate stirred_mill {input.cases:q} --over eta --over rpm --out {output:q}"
+            " > {log:q} 2>&1"
 
     rule plot_stirred_mill:
         input:
@@ -182,10 +218,12 @@ if STIRRED:
             "results/logs/plot_stirred_mill/{figure}.log",
         wildcard_constraints:
             figure="|".join(STIRRED_FIGURES),
+        conda:
+            MILLSIM_ENV
         params:
             caption=figure_caption,
         shell:
-            "millsim plot {wildcards.figure} {input} --out {output} > {log} 2>&1"
+            "millsim plot {wildcards.figure:q} {input:q} --out {output:q} > {log:q} 2>&1"
 
     checkpoint stirred_mill_friction:
         input:
@@ -197,10 +235,12 @@ if STIRRED:
             choice="results/calibration/stirred_mill_friction.json",
         log:
             "results/logs/stirred_mill_friction.log",
+        conda:
+            MILLSIM_ENV
         shell:
-            "millsim analyse stirred-mill friction {input.cases}"
-            " --reference {input.reference} --table {output.table}"
-            " --summary {output.summary} --choice {output.choice} > {log} 2>&1"
+            "millsim analyse stirred-mill friction {input.cases:q}"
+            " --reference {input.reference:q} --table {output.table:q}"
+            " --summary {output.summary:q} --choice {output.choice:q} > {log:q} 2>&1"
 
     checkpoint stirred_mill_viscosity:
         input:
@@ -212,12 +252,14 @@ if STIRRED:
             choice="results/calibration/stirred_mill_viscosity.json",
         log:
             "results/logs/stirred_mill_viscosity.log",
+        conda:
+            MILLSIM_ENV
         params:
             rpm=_CAL["eta_rpm"] if STIRRED else 0,
         shell:
-            "millsim analyse stirred-mill viscosity {input.cases}"
-            " --reference {input.reference} --friction {input.friction} --rpm {params.rpm}"
-            " --table {output.table} --choice {output.choice} > {log} 2>&1"
+            "millsim analyse stirred-mill viscosity {input.cases:q}"
+            " --reference {input.reference:q} --friction {input.friction:q} --rpm {params.rpm:q}"
+            " --table {output.table:q} --choice {output.choice:q} > {log:q} 2>&1"
 
     rule stirred_mill_predict:
         input:
@@ -228,10 +270,12 @@ if STIRRED:
             table="results/calibration/stirred_mill_prediction.csv",
         log:
             "results/logs/stirred_mill_predict.log",
+        conda:
+            MILLSIM_ENV
         shell:
-            "millsim analyse stirred-mill predict {input.cases}"
-            " --reference {input.reference} --viscosity {input.viscosity}"
-            " --table {output.table} > {log} 2>&1"
+            "millsim analyse stirred-mill predict {input.cases:q}"
+            " --reference {input.reference:q} --viscosity {input.viscosity:q}"
+            " --table {output.table:q} > {log:q} 2>&1"
 
 
 SCENE_TARGETS.append(stirred_mill_targets)

@@ -22,7 +22,8 @@ import sys
 from pathlib import Path
 
 import xarray as xr
-import yaml
+
+from millsim.util import safe_yaml
 
 TRUE_FRICTION = 0.3
 FLUIDS = {"dry": 0.0, "twin_A": 0.03, "twin_B": 0.1}
@@ -50,8 +51,8 @@ def main():
     ap.add_argument("--out", default="config/reference/stirred_mill_power.csv")
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()
-    with open(args.config) as fh:
-        cfg = yaml.safe_load(fh)["stirred_mill"]
+    safe_yaml.check_size(args.config)
+    cfg = safe_yaml.load(Path(args.config).read_text(), args.config)["stirred_mill"]
     base = {**cfg["parameters"], "friction": TRUE_FRICTION, "seed": SEED, "dt_factor": DT_FACTOR}
     jobs = {}
     with cf.ThreadPoolExecutor(args.jobs) as pool:

@@ -8,7 +8,7 @@ pure function of numbers (numpy/pandas); ``millsim analyse accuracy`` reads the 
 writes ``results/aggregate/accuracy.nc``, ``millsim plot error_vs_runtime_<name>`` draws the figures
 (millsim.plots.accuracy).
 
-Definitions (also in the README section "Accuracy: error against run time"):
+Definitions (also in docs/results/accuracy.md, "How the numbers are made"):
 
 - **reference**: the converged value. ``finest``: the mean over seeds at the finest step of the
   series. ``richardson``: extrapolation to dt = 0 from the two finest steps with the observed

@@ -16,9 +16,11 @@ import xarray as xr
 from ..io import case_parameters, read_case
 from . import ballmill, bed_impact
 
-__all__ = ["aggregate", "stack_cases", "swept_parameters", "SCENE_SUMMARIES"]
+__all__ = ["aggregate", "same_code", "stack_cases", "swept_parameters", "SCENE_SUMMARIES"]
 
 PER_CASE_DIMS = ("time", "event", "snapshot")
+# the code that computed a case: cases of two versions may differ by the change alone
+CODE_ATTRS = ("engine_hash", "millsim_version")
 
 
 def swept_parameters(cases: Sequence[xr.Dataset]) -> list[str]:
@@ -45,6 +47,9 @@ def stack_cases(cases: Sequence[xr.Dataset], over: Sequence[str],
     """
     if not over:
         raise ValueError("over: name at least one parameter to stack the cases along")
+    twice = [name for i, name in enumerate(over) if name in over[:i]]
+    if twice:
+        raise ValueError(f"over: {twice[0]} given twice; give each parameter once")
     params = [case_parameters(ds) for ds in cases]
     for name in over:
         for i, (ds, p) in enumerate(zip(cases, params)):
@@ -83,6 +88,23 @@ def stack_cases(cases: Sequence[xr.Dataset], over: Sequence[str],
     return stacked
 
 
+def same_code(cases: Sequence[xr.Dataset], names: Sequence[str]) -> dict[str, str]:
+    """The engine hash and version common to ``cases`` (``names``: their files); cases computed
+    by different code are refused, naming two of them."""
+    common = {}
+    for key in CODE_ATTRS:
+        values = [ds.attrs.get(key) for ds in cases]
+        for i, value in enumerate(values):
+            if value is None:
+                raise ValueError(f"{names[i]}: has no {key}; not a case written by millsim run")
+            if value != values[0]:
+                raise ValueError(
+                    f"{key}: {values[0]} in {names[0]} but {value} in {names[i]}; cases of "
+                    "different code versions do not stack: run the older ones again")
+        common[key] = values[0]
+    return common
+
+
 def _unchanged(ds: xr.Dataset) -> xr.Dataset:
     return ds
 
@@ -100,13 +122,16 @@ def aggregate(scene: str, paths: Iterable[str | os.PathLike[str]],
               coord_attrs: dict[str, dict] | None = None) -> xr.Dataset:
     """Read the case files of ``scene`` and stack them along ``over``.
 
-    ``over`` defaults to the parameters that differ between the cases.
+    ``over`` defaults to the parameters that differ between the cases. The cases must come from
+    one code version (``same_code``), which the aggregate records.
     """
     paths = [os.fspath(p) for p in paths]
     cases = [read_case(p, scene) for p in paths]
+    code = same_code(cases, paths)
     over = list(over or swept_parameters(cases))
     per_case, summary = SCENE_SUMMARIES.get(scene, (_unchanged, _unchanged))
     stacked = summary(stack_cases([per_case(ds) for ds in cases], over, coord_attrs))
+    stacked.attrs.update(code)  # set, not left to the stacking: a summary may rebuild the attrs
     stacked.attrs["source_cases"] = json.dumps(paths)
     stacked.attrs["title"] = f"millsim {scene}: {len(paths)} cases stacked over {', '.join(over)}"
     return stacked

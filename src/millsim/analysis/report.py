@@ -10,7 +10,11 @@ here from those files, so the page and the files cannot disagree.
 
 A verdict is a dict: study, check, rule (the rule that decides it, in words, with where it is
 implemented), value (what was found), passed (True, False, or None where the rule cannot be
-applied, e.g. no points).
+applied, e.g. no points, or for a documented deviation), status (PASS, FAIL, n/a or DEVIATION
+(documented): a known limitation reported with its number, not tested), p_value (the test's
+p-value against the model; None for a deterministic rule or a deviation) and threshold (the level
+Holm's procedure compared it with). The statistical verdicts of a run are decided together
+(:func:`decide`): a correct simulation fails any of them with a chance of at most 5 %.
 """
 
 import json
@@ -21,7 +25,7 @@ import numpy as np
 from ..io import read_case
 from . import stirred_mill as sm
 
-FAILED, UNDECIDED, PASSED = "FAIL", "n/a", "PASS"
+FAILED, UNDECIDED, PASSED, DEVIATION = "FAIL", "n/a", "PASS", "DEVIATION (documented)"
 PER_S, PER_MIN, ETA, MU, NNC = "s\u207b\u00b9", "min\u207b\u00b9", "\u03b7", "\u03bc", "n/n_c"
 
 
@@ -48,6 +52,11 @@ def _interval_text(iv, digits=3):
 
 
 def _status(passed):
+    """The status word of a verdict (a dict: its ``status`` if it has one) or of its ``passed``."""
+    if isinstance(passed, dict):
+        if passed.get("status"):
+            return passed["status"]
+        passed = passed["passed"]
     return UNDECIDED if passed is None else PASSED if passed else FAILED
 
 
@@ -114,15 +123,22 @@ def bed(path):
                 table=table, numbers=dict(rows=rows), verdicts=[])
 
 
+_SET_RULE = ("; the energies (impacts) combined by Bonferroni, the run's verdicts by Holm at 5 % "
+             "family-wise")
 _TAVARES_RULES = {
-    "probability": "eq 1 inside the 95 % Clopper-Pearson interval of the simulated fraction "
-                   "broken at >= 90 % of the energies",
-    "repeated": "eqs 1-6 inside the 95 % Clopper-Pearson interval of the fraction broken after "
-                ">= 90 % of the impacts",
-    "t10": "eq 7 (E50b of the broken) inside the 95 % bootstrap interval of t10 at >= 90 % of "
-           "the energies",
+    "probability": "eq 1 against the broken count at each energy, exact two-sided binomial test"
+                   + _SET_RULE,
+    "repeated": "eqs 1-6 against the cumulative broken count after each impact, exact two-sided "
+                "binomial test" + _SET_RULE,
+    "t10": "eq 7 (E50b of the broken) against the simulated t10 at each energy, z from its 95 % "
+           "bootstrap interval" + _SET_RULE,
 }
-_WHERE = "millsim.analysis.tavares_verification.pass_rule"
+_WHERE = {group: f"millsim.analysis.tavares_verification.{test}, bonferroni, holm"
+          for group, test in (("probability", "binomial_p_value"),
+                              ("repeated", "binomial_p_value"), ("t10", "interval_p_value"))}
+_DEVIATION_RULE = ("known limitation of breakage_at: first_reach (breaks at the fracture energy, "
+                   "t10 below eq 7; docs/tavares.md section 5): reported with its numbers, not "
+                   "tested (millsim.analysis.tavares_verification.DEVIATIONS)")
 
 
 def tavares(path):
@@ -137,9 +153,24 @@ def tavares(path):
             value = (f"{round(inside * points)} of {points} inside ({100 * inside:.0f} %)"
                      if points else f"{100 * inside:.0f} % inside" if np.isfinite(inside)
                      else "no points")
+            p_value = r.get("p_value", math.nan)
+            if r.get("deviation"):
+                ratio = ", ".join(_f(x, 2) for x in r.get("t10_over_model", []))
+                within = round(inside * points) if points else 0
+                verdicts.append(dict(study="tavares", check=f"{group}: {name}",
+                                     rule=_DEVIATION_RULE, passed=None, status=DEVIATION,
+                                     value=f"t10 / eq 7 = {ratio} at its {points} energies "
+                                           f"({within} inside the 95 % intervals)",
+                                     p_value=None, threshold=None))
+                continue
+            if np.isfinite(p_value):
+                value += f"; p = {_f(p_value, 2)}"
+            # an aggregate written before the p-values keeps the rule it was decided by
+            old = "p_value" not in r and np.isfinite(inside)
             verdicts.append(dict(study="tavares", check=f"{group}: {name}",
-                                 rule=f"{_TAVARES_RULES[group]} ({_WHERE})", value=value,
-                                 passed=bool(r["pass"]) if np.isfinite(inside) else None))
+                                 rule=f"{_TAVARES_RULES[group]} ({_WHERE[group]})", value=value,
+                                 passed=bool(r["pass"]) if old else None,
+                                 p_value=p_value if np.isfinite(p_value) else None))
     headline = []
     if "rep_fraction" in ds:
         last = ds.isel(impact=-1)
@@ -231,15 +262,14 @@ def calibration(friction, viscosity, prediction, reference):
                      + ([_f(v["truth"]) if v["truth"] is not None else "not stated"]
                         if synthetic else []))
         if synthetic:
-            inside = (None if iv is None or v["truth"] is None
-                      else bool(iv["lo"] * (1 - 1e-9) <= v["truth"] <= iv["hi"] * (1 + 1e-9)))
             verdicts.append(dict(
                 study="stirred_mill", check=f"calibration recovers the twin's {v['parameter']}",
-                rule="the synthetic twin's generating value inside the 95 % interval of the "
-                     "calibrated one (millsim.analysis.stirred_mill.interval)",
+                rule="the synthetic twin's generating value against the calibrated one, z from "
+                     "its 95 % interval (millsim.analysis.stirred_mill.interval); the run's "
+                     "verdicts by Holm at 5 % family-wise",
                 value=(f"{_f(v['truth'])} vs {_interval_text(iv)}" if iv and v["truth"] is not None
                        else "no interval or no generating value"),
-                passed=inside))
+                passed=None, p_value=_twin_p_value(v["refined"], iv, v["truth"])))
     notes = []
     if any(v["interval"] and (v["interval"]["lo_open"] or v["interval"]["hi_open"])
            for v in values):
@@ -265,6 +295,43 @@ def calibration(friction, viscosity, prediction, reference):
                              prediction_max_relative_residual=float(rel.max())))
 
 
+def _twin_p_value(refined, iv, truth):
+    """Two-sided p-value of the twin's generating value against the calibrated ``refined`` with
+    95 % interval ``iv``, its standard error the half-width towards ``truth`` / 1.96 (the interval
+    is the simulation's and reference's combined 95 % band mapped through the power curve: normal,
+    linearised). A truth beyond an open end (the grid does not bracket the interval) cannot be
+    rejected: p = 1. None without an interval or a generating value."""
+    if iv is None or truth is None:
+        return None
+    from .tavares_verification import interval_p_value
+
+    if (truth < iv["lo"] and iv["lo_open"]) or (truth > iv["hi"] and iv["hi_open"]):
+        return 1.0
+    return float(interval_p_value(refined, iv["lo"], iv["hi"], truth))
+
+
+def decide(verdicts, alpha=None):
+    """The verdicts of a run decided together, in place: every verdict with a ``p_value`` by
+    Holm's step-down procedure over all of them at family-wise ``alpha`` (default
+    tavares_verification.FAMILY_ALPHA = 5 %: a correct simulation fails any with a chance of at
+    most 5 %, under any dependence; Holm 1979); ``passed``, ``status`` and ``threshold`` set. A
+    deterministic verdict (no p_value) keeps its ``passed``; a deviation keeps its status."""
+    from .tavares_verification import FAMILY_ALPHA, holm
+
+    tested = [v for v in verdicts if v.get("p_value") is not None
+              and np.isfinite(v["p_value"])]
+    rejected, threshold = holm([v["p_value"] for v in tested],
+                               FAMILY_ALPHA if alpha is None else alpha)
+    for v, rej, thr in zip(tested, rejected, threshold):
+        v["passed"], v["threshold"] = not rej, thr
+    for v in verdicts:
+        v.setdefault("p_value", None)
+        v.setdefault("threshold", None)
+        if v.get("status") != DEVIATION:
+            v["status"] = _status(v["passed"])
+    return verdicts
+
+
 def _read_json(path):
     try:
         with open(path) as fh:
@@ -276,8 +343,9 @@ def _read_json(path):
 # ---- the summary -----------------------------------------------------------------------------
 
 def summarise(ballmill_path=None, forcechain_path=None, bed_path=None, tavares_path=None,
-              stirred_path=None, calibration_paths=None, command=""):
-    """The summary of whichever studies are given (a dict, JSON-serialisable)."""
+              stirred_path=None, calibration_paths=None, command="", docs="docs/results"):
+    """The summary of whichever studies are given (a dict, JSON-serialisable), with how many
+    pages of ``docs`` (the measured results) are current."""
     studies = [_read(study, path) for study, path in (
         (ballmill, ballmill_path), (forcechain, forcechain_path), (bed, bed_path),
         (tavares, tavares_path), (stirred, stirred_path)) if path]
@@ -286,9 +354,23 @@ def summarise(ballmill_path=None, forcechain_path=None, bed_path=None, tavares_p
         cal = _read(calibration, *calibration_paths)
         synthetic = cal["numbers"]["synthetic"]
         studies.append(cal)
-    verdicts = ordered([v for s in studies for v in s.pop("verdicts")])
+    verdicts = ordered(decide([v for s in studies for v in s.pop("verdicts")]))
     return dict(command=command, synthetic_reference=synthetic, verdicts=verdicts,
-                studies=studies)
+                studies=studies, evidence=_evidence(docs))
+
+
+def _evidence(docs):
+    """How many results pages are current (millsim.analysis.evidence): engine, total, current,
+    stale, no_hash and the line that says so; None where the pages are not there (an
+    installed package run outside the repository)."""
+    from . import evidence
+
+    try:
+        result = evidence.evidence(docs)
+    except ValueError:
+        return None
+    return dict({k: result[k] for k in ("engine", "total", "current", "stale", "no_hash")},
+                headline=evidence.headline(result), command="millsim evidence")
 
 
 def _read(study, path, *more):
@@ -301,19 +383,25 @@ def _read(study, path, *more):
 
 
 def ordered(verdicts):
-    """Failed first, then undecided, then passed; the given order within each."""
-    rank = {False: 0, None: 1, True: 2}
-    return sorted(verdicts, key=lambda v: rank[v["passed"]])
+    """Failed first, then undecided, then documented deviations, then passed; the given order
+    within each."""
+    rank = {FAILED: 0, UNDECIDED: 1, DEVIATION: 2, PASSED: 3}
+    return sorted(verdicts, key=lambda v: rank[_status(v)])
 
 
 def verdict_lines(summary):
-    """One line per verdict, failed first: STATUS  check: value  [rule]."""
+    """One line per verdict, failed first: STATUS  check: value  [rule]; the head counts the
+    failed, and names the documented deviations apart from the passed."""
     verdicts = ordered(summary["verdicts"])
     failed = sum(v["passed"] is False for v in verdicts)
-    lines = [f"{_status(v['passed']):4s}  {v['study']}: {v['check']}: {v['value']}  "
+    deviations = sum(_status(v) == DEVIATION for v in verdicts)
+    lines = [f"{_status(v):4s}  {v['study']}: {v['check']}: {v['value']}  "
              f"[rule: {v['rule']}]" for v in verdicts]
+    tested = len(verdicts) - deviations
     head = (f"millsim verdicts: {failed} of {len(verdicts)} FAILED" if failed
-            else f"millsim verdicts: all {len(verdicts)} passed")
+            else f"millsim verdicts: all {tested} passed" if not deviations
+            else f"millsim verdicts: all {tested} tested passed, {deviations} documented "
+                 f"deviation{'s' if deviations > 1 else ''}")
     if summary.get("synthetic_reference"):
         lines.append("NOTE  the stirred-mill reference power is a SYNTHETIC twin, not a "
                      "measurement (config/reference/SOURCES.md)")
@@ -347,17 +435,27 @@ def landing_rst(summary):
                 "config/reference/SOURCES.md says how to use measured data.", ""]
     verdicts = ordered(summary["verdicts"])
     failed = sum(v["passed"] is False for v in verdicts)
+    deviations = sum(_status(v) == DEVIATION for v in verdicts)
+    tested = len(verdicts) - deviations
+    head = (f"**{failed} of {tested} checks FAILED** (listed first)." if failed
+            else f"All {tested} checks passed.")
+    if deviations:
+        head += (f" {deviations} documented deviation{'s' if deviations > 1 else ''} of the "
+                 "model (reported with its number, not tested).")
     out += ["Verification verdicts", "---------------------", "",
-            (f"**{failed} of {len(verdicts)} checks FAILED** (listed first)." if failed
-             else f"All {len(verdicts)} checks passed.") + " Each is decided by the rule given.",
-            ""]
+            head + " Each is decided by the rule given; together they fail a correct "
+            "simulation at most 5 % of the time (Holm 1979 over the tested checks).", ""]
     if verdicts:
         rows = [["verdict", "check", "found", "rule"]]
-        rows += [[_status(v["passed"]), f"{v['study']}: {v['check']}", v["value"], v["rule"]]
+        rows += [[_status(v), f"{v['study']}: {v['check']}", v["value"], v["rule"]]
                  for v in verdicts]
         out += _list_table(rows) + [""]
         # the status column in bold where it failed: list-table cells are plain, so mark them
         out = [line.replace("   * - FAIL", "   * - **FAIL**") for line in out]
+    if summary.get("evidence"):
+        ev = summary["evidence"]
+        out += [f"Measured results in docs/results: {_rst(ev['headline'])} "
+                f"(``{ev['command']}`` lists the others).", ""]
     for study in summary["studies"]:
         title = study["title"]
         out += [title, "-" * len(title), ""]

@@ -24,9 +24,30 @@ Analytic values:
 - product size distribution of the broken particles: eq 10 through that t10, extended below d/75
   by the eq 11-12 power law (``product_passing_model``).
 
-Pass rule: the analytic value lies inside the 95 % Clopper-Pearson interval of the simulated
-fraction (probabilities) or the 95 % bootstrap interval over particles (t10) at >= 90 % of the
-points of each test.
+Verdict rules (issue 48): each test gives one p-value against the model, and the verdicts of a
+set are decided together so that a correct simulation fails *any* of them with a chance of at
+most ``FAMILY_ALPHA`` = 5 %:
+
+- probability and repeated impacts: at each point (energy, or impact), the exact two-sided
+  binomial test of the simulated broken count against the model's probability (eqs 1-3, or eqs
+  1-6 integrated; the count of independent particles is binomial exactly), p-value by the
+  minimum-likelihood method (Clopper & Pearson's binomial; scipy.stats.binomtest);
+- t10: z of eq 7 against the simulated t10, its standard error read from the 95 % bootstrap
+  interval (half-width / 1.96, a normal approximation);
+- the points of a test combined by Bonferroni: p = min(1, k x the smallest of its k p-values), a
+  valid p-value of "the model holds at every point" under any dependence between the points (the
+  cumulative counts of repeated impacts are strongly dependent);
+- the tests of a set decided by Holm's step-down procedure (Holm 1979, Scand. J. Statist. 6,
+  65-70): the i-th smallest of m p-values fails when it and every smaller one lie at or below
+  FAMILY_ALPHA / (m - i + 1); family-wise error <= FAMILY_ALPHA under any dependence.
+
+``aggregate`` applies Holm over this study's tests (``pass``); the report applies it again over
+every verdict of the run (millsim.analysis.report.decide). t10 under ``breakage_at:
+first_reach`` is a known limitation of that option (it breaks at the fracture energy and leaves
+t10 below eq 7, docs/tavares.md section 5): it is reported as a documented deviation with its
+numbers, not tested. The former rule (the model inside the 95 % interval at >= 90 % of the
+points, ``pass_rule``) allowed no miss at 4 points and failed a correct 4-point test about once
+in ten.
 
 Command line (used by the pipeline)::
 
@@ -37,6 +58,7 @@ Command line (used by the pipeline)::
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -46,9 +68,76 @@ import xarray as xr
 
 from ..io import case_parameters, read_case
 from ..models.breakage.tavares_predictions import table2_comparison
+from .aggregate import same_code
 
 PASS_FRACTION = 0.90
 ENERGY_RATIO = {"units": "1", "long_name": "input specific energy / median E50 (stressing basis)"}
+# the chance that a correct simulation fails any verdict of a set (Holm over the set)
+FAMILY_ALPHA = 0.05
+Z95 = 1.959963984540054  # the normal quantile of a two-sided 95 % interval
+# t10 of this option is below eq 7 by design (docs/tavares.md section 5): reported, not tested
+DEVIATIONS = {"first_reach": "breaks at the fracture energy, t10 below eq 7 (docs/tavares.md "
+                             "section 5)"}
+
+
+def binomial_p_value(k, n, p):
+    """Exact two-sided binomial p-value of ``k`` successes in ``n`` trials at probability ``p``
+    (minimum-likelihood method, as scipy.stats.binomtest): the probability of every count no
+    more likely than ``k``. Vectorised over k, n, p; NaN where an input is not finite."""
+    k, n, p = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (k, n, p)))
+    out = np.full(k.shape, np.nan)
+    for i in np.ndindex(k.shape):
+        if not (np.isfinite(k[i]) and np.isfinite(n[i]) and np.isfinite(p[i])) or n[i] < 1:
+            continue
+        pmf = _binomial_pmf(int(n[i]), float(p[i]))
+        # relative slack as scipy's binomtest: counts as likely as k up to rounding
+        out[i] = min(1.0, float(pmf[pmf <= pmf[int(round(k[i]))] * (1 + 1e-7)].sum()))
+    return out
+
+
+@functools.lru_cache(maxsize=1024)
+def _binomial_pmf(n, p):
+    from scipy import stats
+
+    return stats.binom.pmf(np.arange(n + 1), n, p)
+
+
+def interval_p_value(estimate, lo, hi, model, level_z=Z95):
+    """Two-sided p-value of ``model`` against ``estimate`` whose interval [lo, hi] is a normal
+    +- level_z standard errors (the side towards the model gives the error); NaN where unknown."""
+    from scipy import stats
+
+    estimate, lo, hi, model = (np.asarray(x, dtype=float) for x in (estimate, lo, hi, model))
+    half = np.where(model >= estimate, hi - estimate, estimate - lo)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.abs(model - estimate) / (half / level_z)
+    z = np.where((half <= 0) & (model == estimate), 0.0, z)
+    return 2.0 * stats.norm.sf(z)
+
+
+def bonferroni(p_values):
+    """One p-value of "the model holds at every point" from the points' p-values (NaN ignored):
+    min(1, k x the smallest); NaN without a point."""
+    p = np.asarray(p_values, dtype=float).ravel()
+    p = p[np.isfinite(p)]
+    return float(min(1.0, p.size * p.min())) if p.size else math.nan
+
+
+def holm(p_values, alpha=FAMILY_ALPHA):
+    """Holm's step-down procedure (Holm 1979): (rejected, threshold) per p-value, in the given
+    order; threshold is alpha / (m - rank + 1), the level its p-value is compared with. NaN
+    p-values take no part (rejected False, threshold NaN)."""
+    p = np.asarray(p_values, dtype=float)
+    rejected = np.zeros(p.size, dtype=bool)
+    threshold = np.full(p.size, np.nan)
+    finite = np.flatnonzero(np.isfinite(p))
+    m = finite.size
+    going = True
+    for rank, i in enumerate(finite[np.argsort(p[finite], kind="stable")]):
+        threshold[i] = alpha / (m - rank)
+        going = going and p[i] <= threshold[i]
+        rejected[i] = going
+    return rejected.tolist(), threshold.tolist()
 
 
 def pass_rule(inside, threshold=PASS_FRACTION):
@@ -61,10 +150,28 @@ def pass_rule(inside, threshold=PASS_FRACTION):
     return frac, bool(frac >= threshold)
 
 
-def _rule(inside):
-    """A pass-rule result as stored: fraction inside, points, passed."""
-    frac, ok = pass_rule(inside)
-    return {"inside": frac, "points": int(np.isfinite(np.asarray(inside, float)).sum()), "pass": ok}
+def _rule(inside, p_points, test, deviation=""):
+    """A verdict as stored: fraction inside the 95 % intervals, points, the points' p-values and
+    their Bonferroni combination ``p_value``, the test, and ``deviation`` (a documented one:
+    reported, not tested). ``pass`` is set by :func:`decide_rules` over the study."""
+    p_points = np.asarray(p_points, dtype=float).ravel()
+    frac, _ = pass_rule(inside)
+    return {"inside": frac, "points": int(np.isfinite(np.asarray(inside, float)).sum()),
+            "p_points": [float(x) for x in p_points], "test": test,
+            "p_value": math.nan if deviation else bonferroni(p_points), "deviation": deviation,
+            "pass": None}
+
+
+def decide_rules(rules, alpha=FAMILY_ALPHA):
+    """Holm over every tested rule of ``rules`` ({group: {name: rule}}), in place: ``pass``
+    (None where there is no p-value or the rule is a deviation) and ``threshold``."""
+    flat = [r for group in rules.values() for r in group.values()]
+    rejected, threshold = holm([r["p_value"] for r in flat], alpha)
+    for r, rej, thr in zip(flat, rejected, threshold):
+        tested = np.isfinite(r["p_value"])
+        r["pass"] = (not rej) if tested else None
+        r["threshold"] = thr
+    return rules
 
 
 # ---- aggregate ------------------------------------------------------------------------------
@@ -85,9 +192,15 @@ def aggregate(paths):
     out, coords = {}, {}
     attrs = {"source_cases": json.dumps([os.fspath(p) for p in paths]),
              "title": "millsim Tavares model verification (Tavares et al. 2021, section 4.1): "
-                      "simulated against analytic breakage probabilities, repeated impacts and t10"}
+                      "simulated against analytic breakage probabilities, repeated impacts and t10",
+             # cases of other code would mix two engines' numbers in one verdict
+             **same_code([ds for _, ds in cases], [os.fspath(p) for p in paths])}
     for group in (_probability, _repeated, _fragmentation):
         group(cases, out, coords, attrs)
+    # the verdicts of this study decided together (Holm), stored per group
+    rules = {k: json.loads(v) for k, v in attrs.items() if k.startswith("pass_rule_")}
+    for key, group in decide_rules(rules).items():
+        attrs[key] = json.dumps(group)
 
     sieves, paper, ours, target = table2_comparison()
     coords["table2_sieve"] = ("table2_sieve", sieves, {"units": "1", "long_name": "relative size x/d"})
@@ -142,11 +255,13 @@ def _probability(cases, out, coords, attrs):
     dims = ("prob_mode", "prob_material", "energy_ratio")
     for k, v in arr.items():
         out[f"prob_{k}"] = (dims, v, {"units": meta[k][0], "long_name": meta[k][1]})
+    p_points = binomial_p_value(arr["broken"], arr["n"], arr["analytic"])
+    out["prob_p_value"] = (dims, p_points, {"units": "1", "long_name": "exact two-sided binomial "
+                           "p-value of the broken count against the analytic probability"})
     rule = {}
     for m, mode in enumerate(modes):
         for j, mat in enumerate(mats):
-            frac, ok = pass_rule(arr["inside"][m, j])
-            rule[f"{mode}/{mat}"] = _rule(arr["inside"][m, j])
+            rule[f"{mode}/{mat}"] = _rule(arr["inside"][m, j], p_points[m, j], "binomial")
     attrs["pass_rule_probability"] = json.dumps(rule)
 
 
@@ -180,9 +295,14 @@ def _repeated(cases, out, coords, attrs):
         out[f"rep_{k}"] = (("gamma", "impact"), v, {"units": "1", "long_name": meta[k][0]})
     out["rep_inside"] = (("gamma", "impact"), inside, {"units": "1", "long_name": "analytic inside 95% interval"})
     out["rep_n"] = (("gamma",), ns, {"units": "1", "long_name": "particles"})
-    rule = {f"gamma={g:g}": _rule(inside[i]) for i, g in enumerate(gammas)}
-    if len(gammas) > 1:
-        rule["all"] = _rule(inside)
+    # cumulative broken counts after each impact: binomial (independent particles)
+    p_points = binomial_p_value(np.round(arr["fraction"] * ns[:, None]), ns[:, None],
+                                arr["analytic"])
+    out["rep_p_value"] = (("gamma", "impact"), p_points, {"units": "1", "long_name": "exact "
+                          "two-sided binomial p-value of the cumulative broken count"})
+    # one verdict per gamma (an "all" verdict would test the same points twice)
+    rule = {f"gamma={g:g}": _rule(inside[i], p_points[i], "binomial")
+            for i, g in enumerate(gammas)}
     attrs["pass_rule_repeated"] = json.dumps(rule)
 
 
@@ -232,7 +352,15 @@ def _fragmentation(cases, out, coords, attrs):
     inside = _inside(arr["t10_model"], arr["t10_lo"], arr["t10_hi"], arr["t10"])
     out["t10_inside"] = (("frag_case", "frag_ratio"), inside,
                          {"units": "1", "long_name": "eq 7 inside the 95% bootstrap interval"})
-    rule = {_frag_label(k): _rule(inside[i]) for i, k in enumerate(keys)}
+    p_points = interval_p_value(arr["t10"], arr["t10_lo"], arr["t10_hi"], arr["t10_model"])
+    out["t10_p_value"] = (("frag_case", "frag_ratio"), p_points, {"units": "1", "long_name":
+                          "two-sided p-value of eq 7 (normal, from the 95 % bootstrap interval)"})
+    rule = {}
+    for i, k in enumerate(keys):
+        r = _rule(inside[i], p_points[i], "bootstrap-normal", DEVIATIONS.get(k[3], ""))
+        ratio = arr["t10"][i] / arr["t10_model"][i]
+        r["t10_over_model"] = [float(x) for x in ratio]
+        rule[_frag_label(k)] = r
     attrs["pass_rule_t10"] = json.dumps(rule)
 
 
@@ -258,6 +386,8 @@ def summary(ds):
     for key in ("pass_rule_probability", "pass_rule_repeated", "pass_rule_t10"):
         if key in ds.attrs:
             for name, r in json.loads(ds.attrs[key]).items():
+                status = ("DEVIATION (documented)" if r.get("deviation") else "n/a"
+                          if r["pass"] is None else "PASS" if r["pass"] else "FAIL")
                 lines.append(f"{key[10:]:12s} {name:32s} inside {100 * r['inside']:5.1f} %  "
-                             f"{'PASS' if r['pass'] else 'FAIL'}")
+                             f"p {r.get('p_value', math.nan):.3g}  {status}")
     return lines

@@ -59,12 +59,11 @@ from .kinematics import (
     wall_contact_bounded,
 )
 from .mesh import (
-    FACE,
     MESH_SLOTS,
     SAME_CONTACT_COS,
     TAG_COLUMNS,
-    counted,
     mesh_travel,
+    owns,
     rotate,
     triangle_contact,
     with_mesh_candidates,
@@ -1213,8 +1212,8 @@ def _walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
 
 def _mesh_kernel(spec, layout, wall_force):
     """Contacts of free particle i with the triangles of every mesh wall (engine.mesh): the
-    candidates listed at the last rebuild, one contact per shared feature, history slots
-    matched by normal."""
+    candidates listed at the last rebuild, one contact per touching surface (mesh.owns),
+    history slots matched by normal."""
     PRESSURE = spec.normal_force_sum
     TAG = layout.wall_columns
     HIST = TAG + TAG_COLUMNS
@@ -1244,7 +1243,7 @@ def _mesh_kernel(spec, layout, wall_force):
             xi, m0, m1, m2, region = triangle_contact(M, t, y0, y1, y2, ri)
             if xi <= 0.0:
                 continue
-            if region != FACE and not counted(M, k0, k1, k, t, region, y0, y1, y2, ri):
+            if not owns(M, k0, k1, k, y0, y1, y2, ri):  # one contact per touching surface
                 continue
             if xi > R.max_overlap * ri and err[0] == 0:
                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw

@@ -13,16 +13,17 @@ contact is missed.
 Contact with a triangle (Ericson, Real-Time Collision Detection, 2005, sec. 5.1.5: the closest
 point and whether it lies in the face, on an edge or at a vertex). Faces are one-sided: the mesh
 is a closed solid whose normals point into the particles' domain (``engine.mesh_io``), and a
-particle whose centre is behind a triangle's plane does not touch that triangle. Across shared
-features one contact counts (the double counting that makes a sphere rolling over a flat
-triangulated plane feel a bump at every edge): an edge or vertex contact counts only when the
-centre lies in that feature's Voronoi region, i.e. every triangle sharing the feature finds its
-closest point on that feature too (a flat edge's region is empty: the face beside it counts;
-a convex edge's region is the wedge between its faces' normals), and then once, from the
-lowest triangle that touches it there. This is the face > edge > vertex precedence of the
-DEM mesh contact literature (e.g. Hu et al., Granular Matter 2013; LIGGGHTS ``mesh/surface``
-drops edge and vertex contacts hidden by a face). Face contacts at a concave corner (a lifter's
-root) are distinct contacts and both count.
+particle whose centre is behind a triangle's plane does not touch that triangle. One contact
+per touching surface (``owns``): a triangle's contact counts unless its closest point lies on an
+edge or vertex it shares with a nearer touching triangle (larger overlap; equal overlaps: the
+lower index), "on" meaning within TIE r. So only local minima of the distance over the surface
+count, each once: beside a flat or convex edge the face (or the edge, in its Voronoi region)
+wins, and where several triangles reach the same point (a sphere exactly over a shared edge or
+vertex, which rounding reports as two faces, or an edge and a vertex) the total order of
+(overlap, index) leaves exactly one. This is the face > edge > vertex precedence of the DEM mesh
+contact literature (e.g. Hu et al., Granular Matter 2013; LIGGGHTS ``mesh/surface`` drops edge
+and vertex contacts hidden by a face) decided by distance instead of by the reported region.
+Face contacts at a concave corner (a lifter's root) are distinct minima and both count.
 
 Each particle has MESH_SLOTS contact-history slots for all meshes; a contact keeps the slot whose
 stored normal (in the mesh frame) is within 45 degrees of its own, so that the tangential spring
@@ -41,6 +42,11 @@ from .state import MESH_FIELDS
 MESH_SLOTS = 6
 TAG_COLUMNS = 4  # per slot after the contact state: the normal in the mesh frame (3), wall + 1
 SAME_CONTACT_COS = math.cos(math.pi / 4.0)
+# A closest point within TIE r of a shared edge or vertex is on it (``owns``), a centre whose
+# projection is within TIE r of a face is over it (``triangle_contact``): far above the rounding
+# of the overlaps compared there (their ties reach ~1e-7 r from the feature), far below the
+# extent of any contact (past a convex edge the face's contact is kept for TIE r / height rad).
+TIE = 1e-5
 # region of the closest point: the face, a vertex (a, b, c), an edge (ab, ac, bc)
 FACE, VERTEX_A, VERTEX_B, VERTEX_C, EDGE_AB, EDGE_AC, EDGE_BC = 0, 1, 2, 3, 4, 5, 6
 # grid row per wall: lower corner (3), cell size, cells per axis (3), first cell's index
@@ -199,7 +205,8 @@ def closest_on_triangle(tri, y0, y1, y2):
 @njit(inline="always", cache=True)
 def triangle_contact(M, t, y0, y1, y2, r):
     """Contact of a sphere (centre y in the frame, radius r) with triangle t: (overlap, unit
-    normal triangle -> centre in the frame, region); overlap <= 0: none (also behind the face)."""
+    normal triangle -> centre in the frame, region); overlap <= 0: none (also behind the face).
+    A centre whose projection lies on the face or within TIE r of it has the face's contact."""
     nf = M.tri_normal[t]
     tri = M.tri[t]
     height = (y0 - tri[0, 0]) * nf[0] + (y1 - tri[0, 1]) * nf[1] + (y2 - tri[0, 2]) * nf[2]
@@ -209,23 +216,16 @@ def triangle_contact(M, t, y0, y1, y2, r):
     if region == FACE:  # the plane's normal and distance exactly, as for an analytic plane
         return r - height, nf[0], nf[1], nf[2], FACE
     e0, e1, e2 = y0 - q0, y1 - q1, y2 - q2
+    # The centre's projection within TIE r of the face is on it: rounding puts a point on a
+    # shared edge or vertex just outside some of the triangles there, whose edge or vertex
+    # normal would lean by that offset over the height (up to ~1e-7 where the overlaps tie).
+    o0, o1, o2 = e0 - height * nf[0], e1 - height * nf[1], e2 - height * nf[2]
+    if o0 * o0 + o1 * o1 + o2 * o2 <= (TIE * r) ** 2:
+        return r - height, nf[0], nf[1], nf[2], FACE
     dist = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
     if dist >= r:
         return -1.0, 0.0, 0.0, 0.0, -1
     return r - dist, e0 / dist, e1 / dist, e2 / dist, region
-
-
-@njit(inline="always", cache=True)
-def _feature(M, t, region):
-    """The vertex ids of a feature: (a, b) of an edge, (a, -1) of a vertex."""
-    v = M.tri_vertex[t]
-    if region == EDGE_AB:
-        return v[0], v[1]
-    if region == EDGE_AC:
-        return v[0], v[2]
-    if region == EDGE_BC:
-        return v[1], v[2]
-    return v[region - VERTEX_A], -1
 
 
 @njit(inline="always", cache=True)
@@ -235,26 +235,62 @@ def _has(M, t, vid):
 
 
 @njit(inline="always", cache=True)
-def counted(M, k0, k1, k, t, region, y0, y1, y2, r):
-    """Whether triangle t's edge or vertex contact counts, given the other candidates k0..k1 of
-    the same particle: only if the centre lies in that feature's Voronoi region (every triangle
-    sharing the feature has its closest point there too; else the centre is nearer another part
-    of the surface, e.g. the face beside a flat edge) and no lower triangle touching it there
-    counts it already."""
-    fa, fb = _feature(M, t, region)
+def _near_segment(q0, q1, q2, p, s, tol2):
+    """Whether q lies within sqrt(tol2) of the segment from p to s."""
+    e0, e1, e2 = s[0] - p[0], s[1] - p[1], s[2] - p[2]
+    w0, w1, w2 = q0 - p[0], q1 - p[1], q2 - p[2]
+    f = min(max((w0 * e0 + w1 * e1 + w2 * e2) / (e0 * e0 + e1 * e1 + e2 * e2), 0.0), 1.0)
+    return (w0 - f * e0) ** 2 + (w1 - f * e1) ** 2 + (w2 - f * e2) ** 2 <= tol2
+
+
+@njit(cache=True, _nrt=False)
+def owns(M, k0, k1, k, y0, y1, y2, r):
+    """Whether candidate k (triangle t) of a particle counts its contact (centre y in the mesh
+    frame, radius r, the particle's candidates k0..k1): unless its closest point lies on (within
+    TIE r of) an edge or vertex that t shares with a triangle u of the same mesh that is nearer
+    (larger overlap; at equal overlap the lower index). So a contact counts only where its
+    closest point is a local minimum of the distance over the surface, once: the ordering by
+    (overlap, index) is total, so of the triangles that reach one such point exactly one is not
+    outranked, whatever rounding makes of the regions (face, edge or vertex) they report there.
+
+    Not inlined and without fastmath, so that every overlap compared here is the same number
+    whichever triangle's call computes it (fastmath may contract the copies differently)."""
+    t = M.cand_tri[k]
+    xi, m0, m1, m2, _ = triangle_contact(M, t, y0, y1, y2, r)
+    if xi <= 0.0:
+        return False
+    q0, q1, q2 = y0 - (r - xi) * m0, y1 - (r - xi) * m1, y2 - (r - xi) * m2
+    tri = M.tri[t]
+    tol2 = (TIE * r) ** 2
+    near_ab = _near_segment(q0, q1, q2, tri[0], tri[1], tol2)
+    near_ac = _near_segment(q0, q1, q2, tri[0], tri[2], tol2)
+    near_bc = _near_segment(q0, q1, q2, tri[1], tri[2], tol2)
+    if not (near_ab or near_ac or near_bc):  # inside the face: nothing it shares is near
+        return True
+    v = M.tri_vertex[t]
     for kk in range(k0, k1):
         u = M.cand_tri[kk]
-        if kk == k or M.tri_wall[u] != M.tri_wall[t] or not _has(M, u, fa):
+        if kk == k or M.tri_wall[u] != M.tri_wall[t]:
             continue
-        if fb >= 0 and not _has(M, u, fb):
+        sa, sb, sc = _has(M, u, v[0]), _has(M, u, v[1]), _has(M, u, v[2])
+        if sa and sb and sc:  # a duplicate of t
+            near = True
+        elif sa and sb:  # the edge ab
+            near = near_ab
+        elif sa and sc:
+            near = near_ac
+        elif sb and sc:
+            near = near_bc
+        elif sa or sb or sc:  # one vertex
+            j = 0 if sa else (1 if sb else 2)
+            near = ((q0 - tri[j, 0]) ** 2 + (q1 - tri[j, 1]) ** 2 + (q2 - tri[j, 2]) ** 2
+                    <= tol2)
+        else:
             continue
-        reg = closest_on_triangle(M.tri[u], y0, y1, y2)[3]
-        if reg == FACE:
-            return False
-        ua, ub = _feature(M, u, reg)
-        if not ((ua == fa and ub == fb) or (ua == fb and ub == fa)):
-            return False
-        if u < t and triangle_contact(M, u, y0, y1, y2, r)[0] > 0.0:
+        if not near:
+            continue
+        xu = triangle_contact(M, u, y0, y1, y2, r)[0]
+        if xu > xi or (xu == xi and u < t):
             return False
     return True
 

@@ -85,6 +85,32 @@ def checked_mesh(label, vertices, faces, scale=1.0):
     return np.ascontiguousarray(v * scale), np.ascontiguousarray(f)
 
 
+def first_hits(vertices, faces, origins, directions):
+    """Per ray (origins and unit directions, (R, 3)): the distance to the first triangle it
+    crosses (inf: none) and whether it leaves the solid there (the origin lies inside it).
+    Moller-Trumbore, brute force over the triangles: a set-up check of where a mesh lies."""
+    tri = np.asarray(vertices, np.float64)[np.asarray(faces)]
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    normal = np.cross(e1, e2)
+    dist, leaving = np.full(len(origins), np.inf), np.zeros(len(origins), bool)
+    for k, (o, d) in enumerate(zip(np.asarray(origins, np.float64),
+                                   np.asarray(directions, np.float64))):
+        p = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, p)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            s = o - tri[:, 0]
+            u = np.einsum("ij,ij->i", s, p) * inv
+            q = np.cross(s, e1)
+            v = (q @ d) * inv
+            t = np.einsum("ij,ij->i", e2, q) * inv
+            hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+        if hit.any():
+            j = np.flatnonzero(hit)[np.argmin(t[hit])]
+            dist[k], leaving[k] = t[j], normal[j] @ d > 0  # outward normal along the ray
+    return dist, leaving
+
+
 def _stl_layout(path):
     """Whether the file is laid out as binary STL (84-byte header + 50 bytes per triangle) or
     starts as ASCII STL: trimesh returns an empty mesh, not an error, for garbage."""

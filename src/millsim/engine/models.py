@@ -197,8 +197,8 @@ class ParticleModel:
         self.sim = sim
 
     def __getstate__(self):
-        # ``fields`` is a tuple of a class made at run time (it does not pickle); the Simulation
-        # publishes it again when it is loaded.
+        # ``fields`` is a tuple of a class made at run time (no checkpoint can name it); the
+        # Simulation publishes it again when it is loaded.
         return {k: v for k, v in self.__dict__.items() if k != "fields"}
 
     def params(self):

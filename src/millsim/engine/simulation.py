@@ -83,7 +83,7 @@ from .state import (
 from .timestep import STEPS_PER_CONTACT_LIMIT, time_step_report
 
 # Below this many particles one thread is faster than opening parallel regions every step
-# (measured in bench/RESULTS.md, "serial fallback"); results are identical either way.
+# (docs/engine.md, "Determinism and threads"); results are identical either way.
 SERIAL_BELOW = 2000
 
 # At half the step limit or less (20+ steps per Hertz contact) velocity Verlet's peak overlap is
@@ -313,10 +313,10 @@ class Simulation:
         self.wall_seconds = 0.0
         self._forces_current = False  # the start's forces are evaluated before the first step
 
-    # ---- checkpoints (pickle) ------------------------------------------------------------------
+    # ---- checkpoints (util.checkpoint) ---------------------------------------------------------
     def __getstate__(self):
         # The contact law carries its compiled kernel, and the models' field tuples are of a class
-        # made at run time: neither pickles, so both are rebuilt on load from what does.
+        # made at run time: a checkpoint stores neither, both are rebuilt on load from what it does.
         state = self.__dict__.copy()
         del state["law"]
         state["_fields"] = {model: tuple(fields) for model, fields in self._fields.items()}

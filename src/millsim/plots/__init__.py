@@ -67,9 +67,12 @@ _ENTRIES = (
          "shape for mill power, not for comminution rate, so only the shape is comparable. Lower "
          "panel: mean drive power of the same cases."),
     Plot("ballmill_size_distributions", "ballmill:size_distributions", "aggregate:ballmill",
-         "Fragment size distribution (Fig. 5 of Buchholtz et al. 2000): mass fraction of grains "
-         "per radius class for each rotation speed. Line: mean over the recorded snapshots; band: "
-         "one standard deviation over the snapshots (the temporal fluctuation)."),
+         "Fragment size distribution (Fig. 5 of Buchholtz et al. 2000) as the field reads one: "
+         "cumulative % passing (per cent of the grain mass with radius below r) against the "
+         "radius r at the upper edge of each radius class, on log axes, one line per rotation "
+         "speed, from the mass fraction per class averaged over the recorded snapshots. The "
+         "spread over the snapshots is kept per class in the aggregate (mass_fraction_std), "
+         "not drawn."),
     Plot("ballmill_fragmentation_maps", "ballmill:fragmentation_maps", "aggregate:ballmill",
          "Where grains break (Fig. 7 of Buchholtz et al. 2000): fracture events per second and "
          "unit area on a grid over the drum cross-section (mm), one panel per rotation speed, one "
@@ -81,9 +84,15 @@ _ENTRIES = (
          "black; the colour bar gives the cap)."),
     Plot("ballmill_force_chains", "ballmill:force_chains", "aggregate:ballmill_forcechain",
          "Force-chain statistics (Figs. 10-11 of Buchholtz et al. 2000), run without "
-         "fragmentation: number of chains per length, mean maximum pressure in a chain per length, "
-         "and mean force against the relative position along a chain. One line per rotation "
-         "speed."),
+         "fragmentation, one colour per rotation speed. Left: number of chains of each length "
+         "(grains in the chain; the last class holds all longer ones), counted over all records, "
+         "as symbols with their exact 95% Poisson (Garwood) intervals, which treat the chains as "
+         "independent; counts are small integers in a short run, so no line joins the lengths "
+         "and the axis is linear (logarithmic once an interval reaches above 50). Middle: "
+         "mean over the chains of each length of their largest grain pressure (no interval: "
+         "the aggregate keeps the mean only). Right: mean force against the relative position "
+         "along a chain, over all chains. Symbols of the speeds are shifted sideways around "
+         "each length."),
     Plot("animation", "animation:animation", "snapshots",
          "Animation of a case from its particle snapshots: grains coloured by speed, drum wall "
          "and lifter particles grey."),
@@ -100,9 +109,13 @@ _ENTRIES = (
     Plot("bed_capture_radius", "bed_impact:capture_radius", "aggregate:bed_breakage",
          "Capture radius (largest horizontal distance from the ball's axis of an original bed "
          "particle that broke; 0 when only the central particle broke) against impact energy, as "
-         "Fig. 20 of Tavares et al. 2021. Points: mean over seeds; dots: single seeds; dotted "
-         "lines: the radii of the bed's rings, the only values a monolayer's capture radius can "
-         "take. " + _FEW),
+         "Fig. 20 of Tavares et al. 2021. It is the distance of one particle, which moves a "
+         "fraction of a millimetre before it breaks, so it lies at or just beyond one of the "
+         "bed's site radii: dotted lines and left ticks (mm), named on the right "
+         "by hexagonal ring (a ring k spans k sqrt(3)/2 to k pitches; 'layer 2': sites of the "
+         "second layer). One symbol per seed and energy, its area the number of seeds with that "
+         "radius (seeds within 0.05 mm drawn as one, at their mean); beds side by side around "
+         "each energy; no line joins the energies, as the radius jumps from site to site."),
     Plot("bed_size_distributions", "bed_impact:size_distributions", "aggregate:bed_breakage",
          "Product size distributions (cumulative % passing; dummy spheres and unresolved fines "
          "spread below their size by eq 11), mean over seeds: one panel per bed run at several "
@@ -168,19 +181,25 @@ _ENTRIES = (
     Plot("stirred_mill_friction", "stirred_mill:friction", "table:stirred_mill_friction",
          "Power-draw calibration, stage 1 (Fig. 5 of the LS1 paper). a: dry power against speed "
          "per friction coefficient (95% intervals) with the reference (open squares). b: sum of "
-         "squared residuals per friction; its minimum is the calibrated friction (red line); "
-         "shaded: the 95% interval, the frictions at which the power interpolated between the "
-         "simulated ones stays within the combined simulation and reference intervals "
-         "(millsim.analysis.stirred_mill.interval). " + _FEW + " " + _SYNTHETIC),
+         "squared residuals per friction (dots); its minimum is the calibrated friction (red "
+         "line); "
+         "black dashed: the refined friction, the vertex of the parabola through the minimum "
+         "and its neighbours (blue dashed); shaded: the 95% interval, the frictions at which "
+         "the power interpolated between the simulated ones stays within the combined "
+         "simulation and reference intervals (millsim.analysis.stirred_mill.interval; an end "
+         "at the edge of the grid is open, written <= or >=). " + _FEW + " " + _SYNTHETIC),
     Plot("stirred_mill_viscosity", "stirred_mill:viscosity", "table:stirred_mill_viscosity",
          "Power-draw calibration, stage 2 (Fig. 6 of the LS1 paper): power at the calibration "
          "speed against the simulation viscosity (95% intervals), with the reference power of each "
          "fluid at its measured viscosity (open squares) and, at that power, the 95% interval of "
-         "the simulation viscosity consistent with it (bars). " + _SYNTHETIC),
+         "the simulation viscosity consistent with it (bars; an end the simulated grid does not "
+         "bracket is open, written <= or >= in the legend and drawn with an arrow). "
+         + _SYNTHETIC),
     Plot("stirred_mill_prediction", "stirred_mill:prediction", "table:stirred_mill_prediction",
          "Power-draw calibration, stage 3 (Fig. 7 of the LS1 paper): power at the calibrated "
-         "friction and simulation viscosities (filled) against the reference (open), per fluid, "
-         "with 95% intervals. " + _FEW + " " + _SYNTHETIC),
+         "friction and simulation viscosities (filled circles) against the reference (open "
+         "squares, dashed), one colour per fluid, with 95% intervals; legend below the axes. "
+         + _FEW + " " + _SYNTHETIC),
     # ---- accuracy: error against run time ----
     Plot("error_vs_runtime_{name}", "accuracy:error_vs_runtime", "aggregate:accuracy",
          "Error against run time of one accuracy study: for each observable, the error of the mean "
@@ -193,7 +212,7 @@ _ENTRIES = (
          "cheapest step within the tolerance or not distinguishable from zero, for every deciding "
          "observable, at most limit_fraction of the stability limit); squared: the cheapest step "
          "for that observable alone. Right: the observable against the time step (mean +- sd "
-         "over seeds) with the reference. README section \"Accuracy: error against run time\"."),
+         "over seeds) with the reference. docs/results/accuracy.md, \"How the numbers are made\"."),
 )
 
 PLOTS: dict[str, Plot] = {p.name: p for p in _ENTRIES}

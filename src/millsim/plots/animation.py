@@ -1,4 +1,5 @@
-"""Animation of a case from its particle snapshots (HDF5 of ``millsim run --snapshots``) to a GIF."""
+"""Animation of a case from its particle snapshots (HDF5 of ``millsim run --snapshots``) to a
+GIF."""
 
 import os
 

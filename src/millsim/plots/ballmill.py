@@ -13,7 +13,7 @@ from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
-from matplotlib.ticker import LogFormatter
+from matplotlib.ticker import LogFormatter, MaxNLocator
 
 from .style import SYMBOL, few_points_note, label, points
 
@@ -52,7 +52,9 @@ def _variants(ds: xr.Dataset):
 
 def _speed_colours(ds: xr.Dataset):
     speeds = ds[SPEED].values
-    colour = ScalarMappable(Normalize(speeds.min(), speeds.max()), "viridis")
+    # viridis without its last, pale yellow sixth: symbols stay visible on white
+    span = speeds.max() - speeds.min()
+    colour = ScalarMappable(Normalize(speeds.min(), speeds.max() + 0.2 * span), "viridis")
     return [(s, colour.to_rgba(s)) for s in speeds]
 
 
@@ -85,23 +87,26 @@ def rate(ds: xr.Dataset, out: str) -> None:
 
 
 def size_distributions(ds: xr.Dataset, out: str) -> None:
-    """Fig. 5: mass fraction per size class for each speed, mean and spread over snapshots."""
+    """Fig. 5: cumulative % passing against grain radius for each speed, on log axes (the way
+    the field reads a product size distribution), from the mean mass fraction over snapshots."""
     variants = list(_variants(ds))
-    fig = Figure(figsize=(7, 4.5 * len(variants)), layout="constrained")
+    fig = Figure(figsize=(6.4, 4.6 * len(variants)), layout="constrained")
     for ax, (lab, sub) in zip(fig.subplots(len(variants), 1, squeeze=False)[:, 0], variants):
-        radius_um = sub["size_class"] * 1e6  # LogFormatter writes numbers >= 1 plainly
         for speed, colour in _speed_colours(sub):
-            mean = sub["mass_fraction"].sel({SPEED: speed})
-            std = sub["mass_fraction_std"].sel({SPEED: speed})
-            ax.plot(radius_um, mean, "o-", ms=3, color=colour, label=f"{N_NC} = {speed:g}")
-            ax.fill_between(radius_um, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
-        ax.set(xscale="log", xlabel=label("grain radius (size-class centre)", r"$\mu$m"),
-               ylabel=_label(sub["mass_fraction"], "mass fraction per size class"),
+            case = sub.sel({SPEED: speed})
+            # mass below each class's upper bound (CF bounds of size_class)
+            upper = case["size_class_bounds"].values[:, 1] * 1e6
+            passing = 100 * np.cumsum(case["mass_fraction"].values)
+            ax.loglog(upper, np.where(passing > 0, passing, np.nan), "o-", ms=3.5, color=colour,
+                      label=f"{N_NC} = {speed:g}")
+        ax.set(xlabel=label("grain radius r (upper edge of a radius class)", r"$\mu$m"),
+               ylabel="cumulative passing [%]",
                title="Fragment size distribution" + (f" ({lab})" if lab else "")
-               + "\nline: mean over snapshots, band: \u00b11 standard deviation")
+               + "\n% of the grain mass with radius below r, mean over the snapshots")
+        ax.grid(True, which="both", alpha=0.25)
         ax.xaxis.set_major_formatter(LogFormatter())
         ax.xaxis.set_minor_formatter(LogFormatter(minor_thresholds=(2, 1)))
-        ax.legend(ncols=2)
+        ax.legend(loc="lower right", title="rotation speed")
     fig.savefig(out)
 
 
@@ -151,37 +156,62 @@ def pressure_maps(ds: xr.Dataset, out: str) -> None:
     _maps(ds, "pressure", "Time-averaged pressure", out, cap=99.0)
 
 
+def poisson_interval(k, level=0.95):
+    """Exact (Garwood) interval of a Poisson mean from the count ``k``: chi-square quantiles,
+    lower 0 at k = 0."""
+    from scipy.stats import chi2
+
+    k = np.asarray(k, dtype=float)
+    tail = (1.0 - level) / 2
+    lo = np.where(k > 0, chi2.ppf(tail, 2 * np.maximum(k, 1)) / 2, 0.0)
+    return lo, chi2.ppf(1 - tail, 2 * k + 2) / 2
+
+
 def force_chains(ds: xr.Dataset, out: str) -> None:
-    """Figs. 10-11: chain-length distribution, maximum pressure and force along a chain."""
-    fig = Figure(figsize=(14, 4.5), layout="constrained")
+    """Figs. 10-11: chain counts per length (with Poisson intervals), the mean maximum pressure of
+    the chains of each length, and the mean force along a chain. Counts are small integers in a
+    short run, so the per-length panels draw symbols per speed, shifted sideways, no lines."""
+    fig = Figure(figsize=(13, 4.6), layout="constrained")
     ax_count, ax_pressure, ax_force = fig.subplots(1, 3)
-    panels = {ax_count: ("chain_length", "chain_count"),
-              ax_pressure: ("chain_length", "chain_max_pressure"),
-              ax_force: ("chain_position", "chain_force_profile")}
-    for lab, sub in _variants(ds):
-        for speed, colour in _speed_colours(sub):
-            case = sub.sel({SPEED: speed})
-            # log axis: a length without chains is a gap, not a drop
-            case["chain_count"] = case["chain_count"].where(case["chain_count"] > 0)
-            for ax, (x, y) in panels.items():
-                ax.plot(case[x], case[y], "o-", color=colour,
-                        label=f"{N_NC} = {speed:g}" + (f", {lab}" if lab else ""))
-    ax_count.set(yscale="log", xlabel=_label(ds["chain_length"], "chain length L"),
-                 ylabel=_label(ds["chain_count"], "number of chains"),
-                 title="Chain-length distribution")
-    ax_pressure.set(xlabel=_label(ds["chain_length"], "chain length L"),
+    lengths = ds["chain_length"].values
+    variants = [(lab, speed, colour) for lab, sub in _variants(ds)
+                for speed, colour in _speed_colours(sub)]
+    width = 0.6 / len(variants)
+    top = 0.0
+    for k, (lab, speed, colour) in enumerate(variants):
+        case = dict(_variants(ds))[lab].sel({SPEED: speed})
+        name = f"{N_NC} = {speed:g}" + (f", {lab}" if lab else "")
+        x = lengths + (k - (len(variants) - 1) / 2) * width
+        count = case["chain_count"].fillna(0).values
+        lo, hi = poisson_interval(count)
+        top = max(top, float(hi.max()))
+        ax_count.errorbar(x, count, yerr=[count - lo, hi - count], fmt="o", color=colour,
+                          label=name)
+        ax_pressure.plot(x, case["chain_max_pressure"], "o", color=colour, label=name)
+        ax_force.plot(case["chain_position"], case["chain_force_profile"], "o-", ms=4,
+                      color=colour, label=name)
+    # counts up to a few tens read on a linear axis (a zero count and its interval stay visible);
+    # a long run's counts span decades
+    log = top > 50
+    if not log:
+        ax_count.yaxis.set_major_locator(MaxNLocator(integer=True))
+    ax_count.set(yscale="log" if log else "linear", ylim=(None if log else -0.03 * top, None),
+                 xlabel=_label(ds["chain_length"], "chain length L [grains]"),
+                 ylabel="number of chains (all records)",
+                 title="Chain-length distribution\n(bars: 95 % Poisson interval of each count)")
+    ax_pressure.set(xlabel=_label(ds["chain_length"], "chain length L [grains]"),
                     ylabel=_label(ds["chain_max_pressure"], "mean maximum pressure"),
-                    title="Maximum pressure in a chain")
+                    title="Maximum pressure in a chain\n(mean over the chains of that length)")
     ax_force.set(xlabel=_label(ds["chain_position"], "relative position along the chain"),
                  ylabel=_label(ds["chain_force_profile"], "mean force"),
-                 title="Force along a chain")
+                 title="Force along a chain\n(mean over all chains)")
     # the last length class also holds every longer chain
-    lengths = ds["chain_length"].values
     ticks = lengths[:: max(1, len(lengths) // 6)]
     ticks = np.append(ticks[ticks < lengths[-1]], lengths[-1])
     for ax in (ax_count, ax_pressure):
         ax.set_xticks(ticks, [f"{t:g}" for t in ticks[:-1]] + [f"\u2265{lengths[-1]:g}"])
-    for ax in panels:
-        ax.legend()
+        ax.grid(False, axis="x")
+    fig.legend(*ax_count.get_legend_handles_labels(), loc="outside right upper",
+               title="rotation speed")
     fig.suptitle("Force chains (run without fragmentation)")
     fig.savefig(out)

@@ -32,8 +32,9 @@ def _configs(ds):
             sel = ds["broken_fraction_mean"].sel(rings=rings, layers=layers)
             if bool(sel.notnull().any()):
                 n = 1 + 3 * int(rings) * (int(rings) + 1)
-                lab = (f"{n} particles ({int(rings)} ring{'s' if int(rings) != 1 else ''})"
-                       if int(layers) == 1 else f"{int(layers)} layers ({int(rings)} rings)")
+                ring = f"{int(rings)} ring{'s' if int(rings) != 1 else ''}"
+                lab = (f"{n} particles ({ring})" if int(layers) == 1
+                       else f"{int(layers)} layers ({ring})")
                 out.append((rings, layers, lab))
     return sorted(out, key=lambda c: (c[1], c[0]))
 
@@ -70,7 +71,8 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
     n = 0
     for k, (_, _, _, lab, sub) in enumerate(_beds(ds)):
         c = f"C{k % 10}"
-        mean, std = 100 * sub["broken_fraction_mean"].values, 100 * sub["broken_fraction_std"].values
+        mean = 100 * sub["broken_fraction_mean"].values
+        std = 100 * sub["broken_fraction_std"].values
         n = max(n, points(ax, e, mean, np.nan_to_num(std), color=c, label=lab))
         per_seed = 100 * sub["broken_fraction"].values  # (energy, seed)
         if per_seed.shape[-1] > 1:
@@ -102,33 +104,74 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
     fig.savefig(out)
 
 
+def _site_radii(rings, layers, ds):
+    """(radius [mm], name) of every distinct horizontal distance of a bed particle's site from the
+    ball's axis: the values a broken original particle's distance takes (it barely moves before
+    it breaks). Layer-A sites are named by their hexagonal ring, layer-B sites 'layer 2'."""
+    from ..scenes.bed_impact import bed_positions
+
+    d = float(ds.attrs.get("param_particle_diameter", np.nan))
+    spacing = float(ds.attrs.get("param_spacing", np.nan))
+    if not np.isfinite(d * spacing):
+        return []
+    sites = bed_positions(int(rings), int(layers), d, spacing)
+    lowest = np.isclose(sites[:, 2], sites[:, 2].min())
+    out = {}
+    for xy, a in zip(sites[:, :2], lowest):
+        r = round(float(np.hypot(*xy)) * 1e3, 6)
+        # a hexagonal ring k spans k sqrt(3)/2 to k pitches from the centre
+        ring = int(np.ceil(r / (spacing * d * 1e3) - 1e-6))
+        out.setdefault(r, ("centre" if ring == 0 else f"ring {ring}") if a else "layer 2")
+    return sorted(out.items())
+
+
 def capture_radius(ds: xr.Dataset, out: str) -> None:
-    """Fig. 20 of the paper: capture radius against impact energy (mean over seeds, single seeds as
-    dots), with the radii of the bed's rings as reference lines."""
-    fig = Figure(figsize=(6.2, 4.3), layout="constrained")
+    """Fig. 20 of the paper: capture radius against impact energy. A seed's capture radius is the
+    distance of one particle from the ball axis, at or just beyond its site's radius (it moves a
+    little before it breaks), so each seed's value is a symbol near one of the site radii (guide
+    lines, named on the right), symbol area the number of seeds with that value; no line joins
+    the energies, as the radius jumps between sites."""
+    fig = Figure(figsize=(6.6, 4.8), layout="constrained")
     ax = fig.subplots()
-    e = ds["impact_energy"].values
-    n, rings = 0, 0
-    for k, (_, r, _, lab, sub) in enumerate(_beds(ds)):
+    beds = list(_beds(ds))
+    sites = {}
+    for k, (_, rings, layers, lab, sub) in enumerate(beds):
         c = f"C{k % 10}"
-        n = max(n, points(ax, e, 1e3 * sub["capture_radius_mean"].values, color=c, label=lab))
-        per_seed = 1e3 * sub["capture_radius"].values
-        if per_seed.shape[-1] > 1:
-            for s in range(per_seed.shape[-1]):
-                ax.plot(e, per_seed[:, s], ".", color=c, alpha=0.4)
-        rings = max(rings, int(r))
-    pitch = float(ds.attrs.get("param_spacing", np.nan)) \
-        * float(ds.attrs.get("param_particle_diameter", np.nan)) * 1e3
-    if np.isfinite(pitch):
-        for k in range(1, rings + 1):
-            ax.axhline(k * pitch, color="0.6", ls=":", lw=0.8)
-            ax.text(e.min(), k * pitch, f"ring {k} ({k * pitch:.3g} mm)", va="top",
-                    fontsize=7, color="0.4")
-    few_points_note(ax, n, "energy")
-    ax.set(xscale="log", xlabel=ENERGY, ylabel=label("capture radius", "mm"), ylim=(-0.5, None),
-           title="Capture radius: largest distance of a broken bed particle from the ball axis\n"
-                 f"({_seeds_note(ds)}; 0: only the central particle broke)")
-    ax.legend(loc="center right")
+        # beds side by side around each energy (log axis: a constant factor)
+        shift = 1.07 ** (k - (len(beds) - 1) / 2)
+        per_seed = 1e3 * sub["capture_radius"].values.reshape(len(sub["impact_energy"]), -1)
+        for e, values in zip(sub["impact_energy"].values, per_seed):
+            values = np.sort(values[np.isfinite(values)])
+            # seeds at one site differ by micrometres (the particle moves a little before it
+            # breaks): one symbol per run of values less than 0.05 mm apart, at their mean
+            groups = np.split(values, np.flatnonzero(np.diff(values) > 0.05) + 1)
+            radius = [g.mean() for g in groups if g.size]
+            count = np.array([g.size for g in groups if g.size])
+            ax.scatter(np.full(len(radius), e * shift), radius, s=36 * count, color=c,
+                       edgecolor="white", linewidth=0.5, zorder=3)
+        ax.scatter([], [], s=36, color=c, label=lab)
+        sites.update(_site_radii(rings, layers, ds))
+    top = max([r for r in sites] + [float(np.nanmax(1e3 * ds["capture_radius"].values))])
+    for r in sites:
+        ax.axhline(r, color="0.6", ls=":", lw=0.8, zorder=1)
+    ax.set(xscale="log", xlabel=ENERGY, ylabel=label("capture radius", "mm"),
+           ylim=(-0.06 * top, 1.08 * top),
+           title="Capture radius: largest distance of a broken bed particle\nfrom the ball axis "
+                 "(0: only the central particle broke)")
+    ax.grid(False)  # the site radii are the horizontal guides, the energies the ticks
+    energies = ds["impact_energy"].values
+    ax.set_xticks(energies, [f"{e:g}" for e in energies])
+    ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+    if sites:
+        # the values it can take are the ticks: in mm on the left, by ring on the right
+        ax.set_yticks(list(sites), [f"{r:.3g}" for r in sites])
+        names = ax.secondary_yaxis("right")
+        names.set_yticks(list(sites), list(sites.values()), fontsize=7, color="0.35")
+        names.tick_params(length=0)
+    seeds = int(ds.sizes.get("seed", 1))
+    fig.legend(loc="outside lower center", ncols=2,
+               title="one symbol per seed" if seeds == 1 else
+               f"symbols: {seeds} seeds; area: seeds within 0.05 mm of each other")
     fig.savefig(out)
 
 
@@ -141,20 +184,21 @@ def size_distributions(ds: xr.Dataset, out: str) -> None:
     cmap, norm = matplotlib.colormaps["plasma"], matplotlib.colors.LogNorm(energies.min(),
                                                                             energies.max() * 1.0001)
     for *_, lab, sub in _beds(ds):
-        lines = [(f"{e:g} J", cmap(0.85 * norm(e)), sub["passing_fraction_mean"].sel(impact_energy=e))
+        lines = [(f"{e:g} J", cmap(0.85 * norm(e)),
+                  sub["passing_fraction_mean"].sel(impact_energy=e))
                  for e in energies
                  if bool(sub["passing_fraction_mean"].sel(impact_energy=e).notnull().all())]
         # a product without fines (nothing broke) has no point on the log axes: say so
         lines = [(name if float(var[1:].max()) > 0 else f"{name}: nothing broke", c, var)
                  for name, c, var in lines]
         if len(lines) > 1:
-            panels.append((f"{lab}: per impact energy (Fig. 21 of Tavares et al. 2021)", lines))
+            panels.append((f"{lab}\nper impact energy (Fig. 21 of Tavares et al. 2021)", lines))
     e_ref = _reference_energy(ds)
     at_ref = ds.sel(impact_energy=e_ref)
     for mat in at_ref["material"].values:
         configs = _configs(at_ref.sel(material=mat))
         if len(configs) > 1:
-            panels.append((f"{str(mat).replace('_', ' ')}: per bed configuration at {e_ref:g} J "
+            panels.append((f"{str(mat).replace('_', ' ')}\nper bed configuration at {e_ref:g} J "
                            "(Fig. 23 of Tavares et al. 2021)",
                            [(lab, f"C{k % 10}", at_ref["passing_fraction_mean"].sel(
                                material=mat, rings=r, layers=lay))

@@ -1,14 +1,22 @@
 """Stirred-mill figures (the LabStar LS1 paper): power curves, calibration residuals (Figs 5-7),
 contact typology bars (Fig 9), collision-frequency region maps (Fig 8) and coarse-grained velocity
 fields (Fig 11). Matplotlib without pyplot state; inputs are the aggregate netCDF of
-``millsim aggregate stirred_mill`` or the calibration CSV tables of ``millsim analyse stirred-mill``.
+``millsim aggregate stirred_mill`` or the calibration CSV tables of
+``millsim analyse stirred-mill``.
 """
 
 import numpy as np
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
-from ..analysis.stirred_mill import ENERGY_BALANCE_TOLERANCE, friction_interval, friction_ssr
+from ..analysis.stirred_mill import (
+    ENERGY_BALANCE_TOLERANCE,
+    _parabola_min,
+    friction_interval,
+    friction_ssr,
+)
 from .style import SYMBOL, dodge_step, few_points_note, label, points
 
 SYNTHETIC_NOTE = ("reference: see config/reference/SOURCES.md "
@@ -28,13 +36,15 @@ def _cases(ds):
 
 def domain(ds):
     """The simulated domain, from the aggregate's fixed parameters ('' where they are missing):
-    the quick study's slice draws the power of a slice, not of the LS1, so every figure says which."""
+    the quick study's slice draws the power of a slice, not of the LS1, so every figure says
+    which."""
     if "param_slice" not in ds.attrs:
         return ""
     scale, disks = float(ds.attrs["param_scale"]), int(ds.attrs["param_disks"])
     beads = f", {int(ds['n_bead'].max()):,} beads" if "n_bead" in ds else ""
     if int(ds.attrs["param_slice"]):
-        return f"periodic slice around 1 of {disks} disks, scale {scale:g}{beads}: not the LS1's power"
+        return (f"periodic slice around 1 of {disks} disks, scale {scale:g}{beads}: "
+                "not the LS1's power")
     spheres = (f" + {int(ds['n_agitator_particles'].max()):,} agitator spheres"
                if "n_agitator_particles" in ds else "")
     return f"full chamber, {disks} disks, scale {scale:g}{beads}{spheres}"
@@ -174,13 +184,23 @@ def velocity(ds, out):
         a2.set(title=f"rotational, {lab}", xlabel=label("y", "mm"))
         for a in (a1, a2):
             a.grid(False)
-    fig.colorbar(im1, ax=axes[:, 0].tolist(), label=label("|v|", "m s-1"), shrink=0.6,
+    # under the last row only (the scale is shared): a colour bar over the whole column gets a
+    # margin sized by the column's height, and a tall figure then cuts its label
+    fig.colorbar(im1, ax=axes[-1, 0], label=label("|v|", "m s-1"), location="bottom",
+                 extend="max")
+    fig.colorbar(im2, ax=axes[-1, 1], label=label(f"|{SYMBOL['omega']}|", "rad s-1"),
                  location="bottom", extend="max")
-    fig.colorbar(im2, ax=axes[:, 1].tolist(), label=label(f"|{SYMBOL['omega']}|", "rad s-1"),
-                 shrink=0.6, location="bottom", extend="max")
     fig.suptitle(_with_domain("Coarse-grained bead speed on the axial slab\n(one colour scale per "
                               "quantity, ending at its 99th percentile over all cells)", ds))
     fig.savefig(out)
+
+
+def _interval_text(iv, digits=3):
+    """[lo, hi] of an interval; an end at the edge of the simulated grid (open: the grid does
+    not bracket it) as <= lo / >= hi, as the report's landing page writes it."""
+    lo = ("\u2264 " if iv.get("lo_open") else "") + f"{iv['lo']:.{digits}g}"
+    hi = ("\u2265 " if iv.get("hi_open") else "") + f"{iv['hi']:.{digits}g}"
+    return f"[{lo}, {hi}]"
 
 
 def _replicates(t):
@@ -199,22 +219,31 @@ def friction(t, out):
     n = t.groupby("friction")["rpm"].nunique().max()
     shift = dodge_step(t["rpm"], len(groups) + 1) if n < 3 else 0.0
     for k, (mu, sub) in enumerate(groups):
-        points(a, sub["rpm"], sub["net_power"], sub["net_power_ci"], dodge=(k - len(groups)) * shift,
-               label=f"simulation {MU} = {mu:g}{_replicates(sub)}")
+        points(a, sub["rpm"], sub["net_power"], sub["net_power_ci"],
+               dodge=(k - len(groups)) * shift, label=f"simulation {MU} = {mu:g}{_replicates(sub)}")
     ref = t.drop_duplicates("rpm").sort_values("rpm")
     points(a, ref["rpm"], ref["reference"], ref.get("reference_ci"), color="k", marker="s",
            mfc="none", ls="--", label="reference (dry)")
     few_points_note(a, n, "speed", dodged=bool(shift))
     a.set(xlabel=RPM, ylabel=POWER, title="a. dry power vs speed")
     a.legend()
-    b.plot(s["friction"], s["ssr"], "o-", color="C0",
-           label="sum of squared residuals" if len(s) >= 3 else None)
-    best = float(s["friction"].iloc[int(np.argmin(s["ssr"]))])
-    b.axvline(best, color="C3", lw=1, label=f"calibrated {MU} = {best:g}")
+    b.plot(s["friction"], s["ssr"], "o", color="C0", label="sum of squared residuals")
+    mu, ssr = s["friction"].to_numpy(float), s["ssr"].to_numpy(float)
+    k = int(np.argmin(ssr))
+    best = float(mu[k])
+    b.axvline(best, color="C3", lw=1, label=f"calibrated {MU} = {best:g} (grid minimum)")
+    refined = _parabola_min(mu, ssr)
+    if 0 < k < len(mu) - 1:
+        # the parabola through the minimum and its neighbours, whose vertex is the refined value
+        x = np.linspace(mu[k - 1], mu[k + 1], 100)
+        b.plot(x, np.polyval(np.polyfit(mu[k - 1:k + 2], ssr[k - 1:k + 2], 2), x), "--",
+               color="C0", lw=1, label="parabola through the minimum and its neighbours")
+    b.axvline(refined, color="k", ls="--", lw=1,
+              label=f"refined {MU} = {refined:.3g} (parabola vertex)")
     if len(s) > 1:
         iv = friction_interval(t)
         b.axvspan(iv["lo"], iv["hi"], color="C3", alpha=0.12,
-                  label=f"95 % interval [{iv['lo']:.3g}, {iv['hi']:.3g}]")
+                  label=f"95 % interval {_interval_text(iv)}")
     b.set(xlabel=f"friction coefficient {MU}", ylabel=label("sum of squared residuals", "W2"),
           title=f"b. residuals (minimum = calibrated {MU})")
     b.legend()
@@ -241,7 +270,14 @@ def viscosity(t, out):
                     color=c, label=f"reference {fluid} at {ETA_EXP}")
         iv = viscosity_interval(sub)
         ax.plot([iv["lo"], iv["hi"]], [r, r], "-", color=c, lw=4, alpha=0.45,
-                label=f"{fluid}: {ETA_SIM} 95 % interval [{iv['lo']:.2g}, {iv['hi']:.2g}] Pa s")
+                label=f"{fluid}: {ETA_SIM} 95 % interval {_interval_text(iv, 2)} Pa s")
+        # an open end: the interval goes on beyond the grid, an arrow says which way
+        for end, sign in (("lo", -1), ("hi", 1)):
+            if iv[f"{end}_open"]:
+                tip = iv[end] * 1.4 ** sign
+                ax.annotate("", (tip, r), (iv[end], r),
+                            arrowprops=dict(arrowstyle="-|>", color=c, alpha=0.6, lw=1.5))
+                ax.plot([tip], [r], alpha=0)  # autoscale to the arrow's tip
     ax.set(xscale="log", xlabel=label(f"viscosity {ETA}", "Pa s"), ylabel=POWER,
            title=f"Viscosity calibration at {t['rpm'].iloc[0]:g} min$^{{-1}}$")
     ax.legend()
@@ -251,19 +287,27 @@ def viscosity(t, out):
 
 def prediction(t, out):
     """Fig. 7 of the LS1 paper: calibrated power curves vs reference, per fluid."""
-    fig = Figure(figsize=(6.5, 4.4), layout="constrained")
+    fig = Figure(figsize=(6.5, 4.6), layout="constrained")
     ax = fig.subplots()
     n = t.groupby("fluid")["rpm"].nunique().max()
     shift = dodge_step(t["rpm"], 2) if n < 3 else 0.0
+    handles = []
     for k, (fluid, sub) in enumerate(t.groupby("fluid", sort=False)):
         c = f"C{k}"
-        points(ax, sub["rpm"], sub["net_power"], sub["net_power_ci"], color=c, dodge=-shift,
-               label=f"simulation {fluid} ({ETA_SIM} {sub['eta_sim'].iloc[0]:g} Pa s)"
-                     f"{_replicates(sub)}")
+        points(ax, sub["rpm"], sub["net_power"], sub["net_power_ci"], color=c, dodge=-shift)
         points(ax, sub["rpm"], sub["reference"], sub.get("reference_ci"), color=c, marker="s",
-               mfc="none", ls="--", dodge=shift, label=f"reference {fluid}")
+               mfc="none", ls="--", dodge=shift)
+        handles.append(Patch(color=c, label=f"{fluid}: {ETA_SIM} = {sub['eta_sim'].iloc[0]:g} "
+                                            "Pa s"))
+    # the colour names the fluid, the symbol the source: 2 + fluids entries, not 2 x fluids;
+    # the legend fills column by column: fluids on its first row, sources on its second
+    sources = [Line2D([], [], color="0.3", marker="o", label=f"simulation{_replicates(t)}"),
+               Line2D([], [], color="0.3", marker="s", mfc="none", ls="--", label="reference")]
+    cols = max(len(handles), len(sources))
+    handles = [h for i in range(cols) for h in (handles[i:i + 1] + sources[i:i + 1])]
     few_points_note(ax, n, "speed", dodged=bool(shift))
-    ax.set(xlabel=RPM, ylabel=POWER, title="Calibrated model vs reference power")
-    ax.legend(ncols=2)
+    ax.set(xlabel=RPM, ylabel=POWER, ylim=(0, None),
+           title="Calibrated model vs reference power (95 % intervals)")
+    fig.legend(handles=handles, loc="outside lower center", ncols=cols)
     fig.suptitle(SYNTHETIC_NOTE, fontsize=8)
     fig.savefig(out)

@@ -6,8 +6,8 @@ drawing functions set no fonts, sizes or dpi of their own. Conventions they foll
 
 - simulation: filled markers with 95 % intervals; reference data: open squares, dashed; models
   (equations, fits): lines without markers, evaluated on a dense grid (``dense``);
-- symbols through ``SYMBOL`` (mu, eta, omega, n/n_c as mathtext), units through ``unit`` (``"m s-1"``
-  -> m s$^{-1}$), axis labels through ``label``;
+- symbols through ``SYMBOL`` (mu, eta, omega, n/n_c as mathtext), units through ``unit``
+  (``"m s-1"`` -> m s$^{-1}$), axis labels through ``label``;
 - maps and images draw no grid (``ax.grid(False)``);
 - a line joins simulated points only where there are at least ``MIN_TREND`` of them
   (``points``); fewer are drawn as markers and the figure says how many, so that two points never

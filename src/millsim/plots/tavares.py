@@ -49,8 +49,9 @@ def probability(ds, out):
             ok = np.isfinite(sub["fraction"])
             if not ok.any():
                 continue
-            ax.errorbar(sub["specific_energy"][ok], sub["fraction"][ok],
-                        yerr=[sub["fraction"][ok] - sub["ci_lo"][ok], sub["ci_hi"][ok] - sub["fraction"][ok]],
+            f = sub["fraction"][ok]
+            ax.errorbar(sub["specific_energy"][ok], f,
+                        yerr=[f - sub["ci_lo"][ok], sub["ci_hi"][ok] - f],
                         fmt=markers.get(str(mode), "^"), color=colours(j),
                         mfc="white" if mode == "drop_weight" else None, ls="none",
                         label=f"{mat_name}: {mode} (simulation, 95 % interval)")
@@ -170,7 +171,7 @@ def size_distributions(ds, out):
                ylabel="cumulative passing [%]", ylim=(0.01, 110),
                title=f"{sub['frag_case'].item()}\n(symbols: simulation; lines: eq 10 at the eq 7 "
                      f"{SYMBOL['t10']})")
-        ax.legend(loc="upper left")
+        ax.legend(loc="lower right")  # cumulative curves leave it empty
     for ax in axes[n:]:
         ax.set_visible(False)
     fig.savefig(out)

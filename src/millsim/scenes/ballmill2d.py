@@ -23,9 +23,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..engine import Guards, PhysicsSpec, Simulation
+from ..engine import BYTES_PER_PARTICLE, Guards, PhysicsSpec, Simulation
 from ..models import Interaction, Material, MaterialTable, WeibullModel
 from ..models.breakage.weibull import WeibullSplit
+from ..util.memory import RECORD_VALUE_BYTES, check_memory
 from ..util.stats import steady_rate
 from .base import (
     TIME_STEP_PARAMS,
@@ -96,8 +97,54 @@ def _check(values):
                          f"{room / (1 + values['grain_radius_spread']):g} m")
     if values["sieve_radius"] >= values["grain_radius"] * (1 - values["grain_radius_spread"]):
         raise ValueError("sieve_radius: must be below the smallest raw grain radius")
-    check_particle_memory("n_grains" if values["n_grains"] else "filling (n_grains from it)",
-                          grain_count(values))
+    _check_sizes(values)
+
+
+def wall_count(values):
+    """Particles of the drum wall (drum_wall): the ring and the lifter bars."""
+    rw, rl = values["wall_radius"], 0.5 * values["wall_radius"]
+    ring = math.ceil(2 * math.pi * (values["drum_radius"] + rw) / rw)
+    per_lifter = max(0, math.ceil((values["lifter_height"] + 1e-12 - rl) / rl))
+    return ring + (values["lifters"] * per_lifter if values["lifter_height"] > 0 else 0)
+
+
+def _check_sizes(values):
+    """Upper bounds of the counts and grids from the memory of what the case keeps of them
+    (util.memory), before anything is built: a refusal after the run, when the outputs are made,
+    would lose it."""
+    v = values
+    grains, ring, wall = grain_count(v), wall_count(dict(v, lifters=0)), wall_count(v)
+    per_lifter = wall_count(dict(v, lifters=1)) - ring
+    # the particles are grains and wall: the larger share is named, its bound given the other
+    if wall - ring > grains:
+        check_memory("lifters", v["lifters"],
+                     lambda n: (grains + ring + n * per_lifter) * BYTES_PER_PARTICLE,
+                     "lifter bars", f"{per_lifter} particles each besides {grains + ring} "
+                     f"others, {BYTES_PER_PARTICLE} B a particle")
+    check_particle_memory("n_grains" if v["n_grains"] else "filling (n_grains from it)", grains,
+                          others=wall)
+    particles = grains + wall
+    # pressure sums and counts, the fracture histogram, their quotients and the written copies
+    check_memory("grid_cells", v["grid_cells"], lambda n: 10 * 8 * n**2, "cells per side",
+                 "about ten maps of grid_cells^2 values, 8 B each")
+    records = math.ceil(v["duration"] / v["record_interval"]) + 1
+    window = v["duration"] - v["transient"]
+    snap_every = max(1, round(v["snapshot_interval"] / v["record_interval"]))
+    snapshots = math.ceil(window / (snap_every * v["record_interval"])) + 1
+    # one size distribution per snapshot while running, stacked at the end, plus edges and bounds
+    check_memory("size_classes", v["size_classes"], lambda n: 8 * n * (2 * snapshots + 8),
+                 "radius classes", f"{snapshots} size snapshots of size_classes values and their "
+                 "stack, 8 B each")
+    check_memory("rate_blocks", v["rate_blocks"], lambda n: 5 * 8 * n, "blocks",
+                 "edges, counts and rates per block, 8 B each")
+    # without fragmentation every record after the transient keeps the normal-force sums and
+    # pressures of all particles for the force chains
+    chains = 0 if v["fragmentation"] else 2 * 8 * particles * window / v["duration"]
+    per_record = (len(BallMillCase.series) + 1) * RECORD_VALUE_BYTES + chains
+    check_memory("record_interval", records, lambda n: n * per_record, "records",
+                 f"{per_record:.3g} B each" + (", force-chain data included" if chains else ""),
+                 allowed=lambda n: f"record_interval >= {v['duration'] / max(n - 1, 1):.3g} s "
+                                   f"({n} records of the duration)")
 
 
 def grain_count(values):

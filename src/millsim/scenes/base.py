@@ -10,13 +10,14 @@ with the key and its range before any work.
 
 import math
 import numbers
-import os
 import re
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..engine import BYTES_PER_PARTICLE, StepPolicy
+from ..util.memory import check_memory
 from ..util.validation import check_range
 
 # Integer parameters are stored as 64-bit netCDF attributes; a float holds every integer only up
@@ -167,18 +168,13 @@ def step_policy(values, **kw):
     return StepPolicy(dt=values["dt"] or None, dt_factor=values["dt_factor"], **kw)
 
 
-def check_particle_memory(key, count):
-    """Refuse, naming ``key``, a particle count whose engine arrays alone would not fit in this
-    machine's memory (a MemoryError or the OOM killer later, after the placement)."""
-    try:
-        memory = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):  # no sysconf (Windows): nothing to compare with
-        return
-    need = count * BYTES_PER_PARTICLE
-    if need > memory:
-        raise ValueError(f"{key}: {count} particles need at least {need / 1e9:.3g} GB of memory "
-                         f"({BYTES_PER_PARTICLE} B each), more than the {memory / 1e9:.3g} GB of "
-                         f"this machine; allowed up to {memory // BYTES_PER_PARTICLE} particles")
+def check_particle_memory(key, count, others=0):
+    """Refuse, naming ``key``, a particle count whose engine arrays alone (with ``others``
+    particles besides, walls made of particles) would not fit in the memory the run may use
+    (util.memory: RAM, cgroup, SLURM, --max-memory); a MemoryError or the OOM killer later,
+    after the placement, otherwise."""
+    check_memory(key, count, lambda n: (n + others) * BYTES_PER_PARTICLE, "particles",
+                 f"{BYTES_PER_PARTICLE} B each")
 
 
 def record_steps(values, dt, key="record_interval"):
@@ -204,15 +200,85 @@ class RunContext:
     snapshots: Any = None  # a millsim.io.SnapshotWriter, or None
     threads: int = None
     checkpoint_every: float = 0.0  # [s]
+    snapshot_contacts: bool = False  # the pair contacts and their forces in every frame too
+    _walls: Any = field(default=None, repr=False)  # the WallTessellator of the run
 
     def snapshot(self, sim):
-        """Write one frame of ``sim`` if snapshots were requested."""
-        if self.snapshots is None:
+        """Write one frame of ``sim`` (particles, walls, contacts if asked) if snapshots were
+        requested; a frame that does not fit on the disk stops them with a warning (the run
+        goes on)."""
+        writer = self.snapshots
+        if writer is None or writer.failure is not None:
             return
+        from ..engine.wall_geometry import WallTessellator
+
+        if self._walls is None:
+            self._walls = WallTessellator()
         p = sim.particles
-        self.snapshots.write(sim.time, p.x, p.radius, p.v, angular_velocity=p.w,
-                             kinematic=(p.body >= 0).astype("int32"),
-                             particle_id=sim.particle_ids, parent_id=sim.parent_ids)
+        writer.write(sim.time, p.x, p.radius, p.v, walls=self._walls(sim),
+                     contacts=_contact_grid(sim) if self.snapshot_contacts else None,
+                     angular_velocity=p.w, kinematic=(p.body >= 0).astype("int32"),
+                     particle_id=sim.particle_ids, parent_id=sim.parent_ids)
+        if writer.failure is not None:
+            print(f"millsim: warning: --snapshots: {writer.failure}; snapshots stopped and their "
+                  "files removed, the run goes on", file=sys.stderr, flush=True)
+
+    def check_snapshot_space(self, values):
+        """After the first frame: refuse snapshots that would not fit on their disk (frames x
+        the first frame's size, where the scene's parameters give the number of frames), warn
+        above SNAPSHOT_WARN_BYTES."""
+        writer = self.snapshots
+        if writer is None or writer.failure is not None or not writer.frame_bytes:
+            return
+        counted = _snapshot_frames(values)
+        if counted is None:
+            return
+        from ..util.snapshots import format_bytes
+
+        frames, how = counted
+        total, free = frames * writer.frame_bytes, writer.free_bytes()
+        what = (f"--snapshots: about {format_bytes(total)} for {frames} frames ({how}, "
+                f"{format_bytes(writer.frame_bytes)} each)")
+        if total > free:
+            writer.discard()
+            raise ValueError(f"{what}, more than the {format_bytes(free)} free on the disk of "
+                             f"{writer.path}; record less often or write them elsewhere")
+        if total > SNAPSHOT_WARN_BYTES:
+            print(f"millsim: warning: {what}", file=sys.stderr, flush=True)
+
+
+SNAPSHOT_WARN_BYTES = 2**30
+# (frames, how counted) from a scene's parameters: duration or its bound over the record cadence
+_FRAME_COUNTS = (("duration", "record_interval"), ("max_time", "record_interval"),
+                 ("steps", "record_every"), ("revolutions", "records_per_revolution"))
+
+
+def _snapshot_frames(values):
+    for span, cadence in _FRAME_COUNTS:
+        if span in values and cadence in values and values[cadence] > 0:
+            if cadence == "records_per_revolution":
+                frames = values[span] * values[cadence]
+            else:
+                frames = values[span] / values[cadence]
+            return int(frames) + 1, f"{span} = {values[span]:g} / {cadence} = {values[cadence]:g}"
+    return None
+
+
+def _contact_grid(sim):
+    """The touching pairs of ``sim`` as a grid of segments between the particles' centres (the
+    partner's by the minimum image in a periodic box), with the contact forces per segment."""
+    import numpy as np
+
+    from ..engine.wall_geometry import pair_contact_forces
+
+    c = pair_contact_forces(sim)
+    i, j = c.pop("i"), c.pop("j")
+    x = sim.particles.x
+    points = np.empty((2 * len(i), 3))
+    points[0::2] = x[i]
+    points[1::2] = x[i] - sim.separation(i, j)
+    return {"points": points, "cells": np.arange(2 * len(i)).reshape(-1, 2), "i": i, "j": j,
+            "force": c["normal_force"] + c["tangential_force"], **c}
 
 
 REGISTRY: dict = {}

@@ -60,8 +60,9 @@ class Case:
         raise NotImplementedError
 
     def progress(self):
-        """(fraction done in [0, 1], a short note) for the progress line."""
-        return 0.0, ""
+        """(fraction done in [0, 1], a short note) for the progress line; the fraction is None
+        where the case cannot tell (it ends on an event)."""
+        return None, ""
 
     def on_events(self, sim):
         """Handler of breakage decisions (``Simulation.pop_events``); scenes with breakage
@@ -105,42 +106,91 @@ class Case:
 
 
 class Progress:
-    """Progress on stderr at most every few seconds: fraction, rate and ETA.
+    """Progress on stderr at most every few seconds: fraction, rate and ETA where the case knows
+    how far it is, elapsed wall time and simulated time where it does not (a case that ends on an
+    event: a bed at rest, a ball clear of it).
 
-    The first line comes before the first chunk (compiling the step loop can take a minute on a
-    fresh machine); the ETA starts after the first chunk, so it does not count the compilation.
+    numba compiles the step loop of a physics once and keeps it in the kernel cache; a line says
+    so when a compilation actually starts (numba's compile event) during the build or the first
+    chunk, which can take a minute on a fresh machine. The ETA counts from the end of the first
+    chunk, so it does not count the compilation.
     """
 
-    def __init__(self, name, every=5.0, stream=sys.stderr):
+    def __init__(self, name, every=5.0, stream=None):
+        # None: sys.stderr as it is when a line is written (pytest's capture replaces it)
         self.name, self.every, self.stream = name, every, stream
         self.start = time.perf_counter()
-        self.first = None  # (time, fraction) after the first chunk
+        self.first = None  # time after the first chunk
+        self.origin = None  # (time, fraction) at the first known fraction after the first chunk
         self.last = -math.inf
+        self.compiling = False
+        self._watch = _watch_compiles(self)
 
     def begin(self, n_particles):
-        # (numba caches the compiled loop on disk: later runs load it in about a second)
-        self._say(f"{self.name}: {n_particles} particles; compiling the step loop "
-                  "(first run of this physics on this machine only, ~20-60 s)")
+        self._say(f"{self.name}: {n_particles} particles")
 
-    def update(self, fraction, note, steps, n_particles):
+    def compile_started(self):
+        if not self.compiling:
+            self.compiling = True
+            self._say(f"{self.name}: compiling the step loop (first run of this physics on this "
+                      "machine or of this code version, ~20-60 s; later runs load it from the "
+                      "kernel cache)")
+
+    def update(self, fraction, note, steps, n_particles, sim_time=None):
+        """``fraction``: done in [0, 1], or None where the case cannot tell (it ends on an
+        event); 0 counts as not known yet."""
         now = time.perf_counter()
+        known = fraction is not None and fraction > 0
         if self.first is None:
-            self.first = (now, fraction)
+            self.first = now
+            self._watch()  # a compilation after this is no longer the first chunk's
+            if known:
+                self.origin = (now, fraction)
             return
+        if known and self.origin is None:
+            self.origin = (now, fraction)
         if now - self.last < self.every:
             return
         self.last = now
-        t0, f0 = self.first
-        rate = (fraction - f0) / max(now - t0, 1e-9)
-        eta = f"ETA {(1.0 - fraction) / rate:.0f} s" if rate > 0 else "ETA -"
-        self._say(f"{self.name}: {100 * fraction:5.1f} %  step {steps}  {n_particles} particles  "
-                  f"{eta}" + (f"  {note}" if note else ""))
+        elapsed = f"{now - self.start:.0f} s elapsed"
+        simulated = "" if sim_time is None else f"  t = {sim_time:.4g} s simulated"
+        if known:
+            t0, f0 = self.origin
+            rate = (fraction - f0) / max(now - t0, 1e-9)
+            eta = f"ETA {(1.0 - fraction) / rate:.0f} s" if rate > 0 else elapsed
+            line = f"{100 * fraction:5.1f} %  step {steps}  {n_particles} particles  {eta}"
+        else:
+            line = f"step {steps}  {n_particles} particles{simulated}  {elapsed}"
+        self._say(f"{self.name}: {line}" + (f"  {note}" if note else ""))
 
     def finish(self, steps):
+        self._watch()
         self._say(f"{self.name}: done, {steps} steps in {time.perf_counter() - self.start:.1f} s")
 
     def _say(self, text):
         _say(text, self.stream)
+
+
+def _watch_compiles(progress):
+    """Tell ``progress`` when numba starts a compilation; returns the function that stops
+    watching (also called once ``progress`` is garbage: a run that raised leaves no watcher)."""
+    import weakref
+
+    from numba.core import event
+
+    class Notice(event.Listener):
+        def on_start(self, _):
+            target = ref()
+            if target is not None:
+                target.compile_started()
+
+        def on_end(self, _):
+            pass
+
+    ref = weakref.ref(progress)
+    notice = Notice()
+    event.register("numba:compile", notice)
+    return weakref.finalize(progress, event.unregister, "numba:compile", notice)
 
 
 def _say(text, stream=None):
@@ -162,6 +212,9 @@ class Checkpoint:
     def __init__(self, out, scene, values, every):
         self.path = Path(f"{out}.ckpt")
         self.key = {"scene": scene.name, "parameters": values}
+        # a scene from outside millsim (--scene-module, a plugin) has its Case in its own package
+        top = getattr(scene.build, "__module__", "millsim").split(".")[0]
+        self.packages = () if top == "millsim" else (top,)
         self.every = every
         self.last = time.perf_counter()
 
@@ -172,7 +225,7 @@ class Checkpoint:
         if not self.path.exists():
             return None
         try:
-            return read_checkpoint(self.path, self.key)
+            return read_checkpoint(self.path, self.key, self.packages)
         except ValueError as exc:
             _say(f"ignoring checkpoint {self.path}: {exc}; starting from step 0")
             return None
@@ -181,9 +234,18 @@ class Checkpoint:
         return self.every > 0 and time.perf_counter() - self.last >= self.every
 
     def save(self, state):
+        """Save ``state``; a save that fails for the filesystem's sake (disk full, quota,
+        permission) leaves no file, says so in one line and the run goes on: the checkpoint is
+        a convenience, the case file what matters. The next try comes at the next due time."""
         from ..io import write_checkpoint
 
-        write_checkpoint(self.path, self.key, state)
+        try:
+            write_checkpoint(self.path, self.key, state, self.packages)
+        except (OSError, ValueError) as exc:  # ValueError: check_writable's refusal
+            cause = str(exc) if str(exc).startswith("cannot write") else \
+                f"cannot write {self.path}: {getattr(exc, 'strerror', None) or exc}"
+            _say(f"checkpoint not saved: {cause}; the run goes on without it, next try in "
+                 f"{self.every:g} s")
         self.last = time.perf_counter()
 
     def remove(self):
@@ -212,6 +274,7 @@ def drive(scene, values, ctx, out=None):
     else:
         case, steps_total, resumed = scene.build(values), 0, []
         ctx.snapshot(case.sim)
+        ctx.check_snapshot_space(values)  # the first frame's size times the frames to come
     if progress:
         progress.begin(case.sim.n_particles)
     while not case.done():
@@ -227,7 +290,7 @@ def drive(scene, values, ctx, out=None):
             ctx.snapshot(case.sim)  # a frame per record
         if progress:
             fraction, note = case.progress()
-            progress.update(fraction, note, steps_total, case.sim.n_particles)
+            progress.update(fraction, note, steps_total, case.sim.n_particles, case.sim.time)
         if checkpoint and checkpoint.due() and not case.done():
             checkpoint.save({"case": case, "steps_total": steps_total, "resumed_at_steps": resumed,
                              "wall_time_s": time.perf_counter() - t_wall})

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..engine import PhysicsSpec, Simulation, StepPolicy
 from ..engine.mesh import signed_clearance
-from ..engine.mesh_io import read_mesh
+from ..engine.mesh_io import first_hits, read_mesh
 from ..engine.spec import FORCE_SUMS
 from ..models import Interaction, Material, MaterialTable
 from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, check_particle_memory, register
@@ -30,9 +30,10 @@ PARAMS = (
     Param("drum_radius", 0.04, "drum inner radius (drum)", "m", 0.0, lo_open=True),
     Param("drum_length", 0.04, "drum length along its horizontal y axis (drum)", "m", 0.0, lo_open=True),
     Param("drum_omega", 9.5, "drum angular velocity (drum)", "rad s-1"),
-    Param("liner", "", "STL of the drum's shell as a closed solid, axis along y from y = 0 to "
-          "drum_length (drum; docs/walls.md): a mesh wall turning with the drum instead of the "
-          "cylinder of drum_radius (the lattice start stays inside drum_radius, clear of it)"),
+    Param("liner", "", "STL of the drum's shell as a closed solid around the axis along y from "
+          "y = 0 to drum_length (container=drum only; docs/engine.md): a mesh wall turning with "
+          "the drum instead of the cylinder of drum_radius, which must match its shell within 5 % "
+          "(the lattice start stays inside drum_radius, clear of the liner)"),
     Param("liner_scale", 1.0, "factor from the liner STL's units to m (1e-3: mm)", "1", 0.0,
           lo_open=True),
     Param("integrator", "verlet", "time integrator", choices=("verlet", "gear")),
@@ -51,10 +52,57 @@ PARAMS = (
 
 LATTICE = 2.2  # lattice spacing in radii, as in the LIGGGHTS baseline (2.2 mm for r = 1 mm)
 JITTER = 0.09  # lattice jitter in radii
+# A liner is probed by rays from the drum's axis: this many directions at each of LINER_HEIGHTS
+# heights; its shell (the farthest first hit) must lie within LINER_MATCH of drum_radius, where
+# the lattice start is placed (a polygon's mid-face lies cos(pi / sides) inside its circle).
+LINER_RAYS, LINER_HEIGHTS, LINER_MATCH = 72, 5, 0.05
 
 
 def _check(values):
     check_particle_memory("n", values["n"])
+
+
+def _check_liner(values):
+    """``liner`` only where it is the shell (container=drum), and then a solid around the drum's
+    axis from y = 0 to drum_length whose shell lies at drum_radius: a valid solid elsewhere, or
+    one in mm read as m, would run with the charge falling out of it or start outside it."""
+    liner, scale = values["liner"], values["liner_scale"]
+    if liner and values["container"] != "drum":
+        raise ValueError(f"liner: {liner!r}: container={values['container']} takes no liner (it "
+                         "replaces the shell of container=drum)")
+    if not liner:
+        if scale != 1.0:
+            raise ValueError(f"liner_scale: {scale:g} given without a liner")
+        return
+    vertices, faces = read_mesh(liner, scale)
+    radius, length, r = values["drum_radius"], values["drum_length"], values["radius"]
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    span = ("the liner spans " + ", ".join(f"{axis} [{a:.4g}, {b:.4g}]"
+                                           for axis, a, b in zip("xyz", lo, hi)) + " m")
+    if not 0.2 * radius < (hi - lo).max() < 20 * radius:  # mm read as m, or the reverse
+        span = f"units? liner_scale is {scale:g} (1e-3: a file in mm); {span}"
+    if lo[1] > r or hi[1] < length - r:
+        raise ValueError(f"liner: {liner}: does not run along the drum's axis from y = 0 to "
+                         f"drum_length = {length:g} m (to within the sphere radius); {span}")
+    angle = 2 * math.pi * (np.arange(LINER_RAYS) + 0.5) / LINER_RAYS
+    heights = length * (np.arange(LINER_HEIGHTS) + 0.5) / LINER_HEIGHTS
+    origins = np.column_stack([np.zeros(angle.size * heights.size), np.repeat(heights, angle.size),
+                               np.zeros(angle.size * heights.size)])
+    directions = np.tile(np.column_stack([np.cos(angle), np.zeros_like(angle), np.sin(angle)]),
+                         (heights.size, 1))
+    dist, inside = first_hits(vertices, faces, origins, directions)
+    if not np.isfinite(dist).all():
+        raise ValueError(f"liner: {liner}: does not enclose the drum's axis (x = z = 0): "
+                         f"{int((~np.isfinite(dist)).sum())} of {dist.size} rays from it meet no "
+                         f"wall, the charge would fall out; {span}")
+    if inside.any():
+        raise ValueError(f"liner: {liner}: the drum's axis (x = z = 0) lies inside the liner's "
+                         f"solid, not in its hollow; {span}")
+    shell = float(dist.max())
+    if abs(radius - shell) > LINER_MATCH * shell:
+        raise ValueError(f"liner: {liner}: its shell lies {shell:.4g} m from the axis but "
+                         f"drum_radius is {radius:g} m (the lattice start fills drum_radius): set "
+                         f"drum_radius within {LINER_MATCH:.0%} of it; {span}")
 
 
 def _lattice(values, rng):
@@ -225,4 +273,4 @@ class PackingCase(Case):
 
 
 register(Scene("packing", "spheres settled in a box or tumbling in a rotating drum (benchmark case)",
-               PARAMS, PackingCase, (_check,)))
+               PARAMS, PackingCase, (_check, _check_liner)))

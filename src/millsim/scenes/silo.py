@@ -22,7 +22,15 @@ from scipy import stats
 
 from ..engine import Guards, PhysicsSpec, Pour, Simulation
 from ..models import Interaction, Material, MaterialTable
-from .base import SOLID_PARAMS, TIME_STEP_PARAMS, Param, Scene, register, step_policy
+from .base import (
+    SOLID_PARAMS,
+    TIME_STEP_PARAMS,
+    Param,
+    Scene,
+    check_particle_memory,
+    register,
+    step_policy,
+)
 from .driver import Case, Series
 
 BEVERLOO_C, BEVERLOO_K = 0.58, 1.5
@@ -56,6 +64,7 @@ def _check(values):
                          f"{2 * r:g} m")
     if not values["pour_height"] > 6.0 * r:
         raise ValueError(f"pour_height: must exceed 6 radii ({6 * r:g} m)")
+    check_particle_memory("n", values["n"])
 
 
 def beverloo(bulk_density, orifice, diameter):

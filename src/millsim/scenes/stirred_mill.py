@@ -28,6 +28,7 @@ from ..models import Interaction, Lubrication, Material, MaterialTable
 from ..models.contact import linear_contact_time
 from ..models.lubrication import AUTO_STEP_RATIO, SCHEMES, TOLERANCE, check_lubrication_params
 from ..models.materials import damping_ratio
+from ..util.memory import RECORD_VALUE_BYTES, check_memory
 from ..util.stats import block_mean_ci
 from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
 from .driver import Case, Series
@@ -133,6 +134,15 @@ def _check(values):
     check_lubrication_params(values["eta"], values["h_min"], values["h_max"])
     check_particle_memory("n_beads" if values["n_beads"] else "filling (n_beads from it)",
                           geometry(values)["n_beads"])
+    # upper bounds from the memory of what the case keeps (util.memory), before anything is built:
+    # the coarse-grained fields (5 sums, their quotients and the written copies) and the records
+    check_memory("cg_cells", values["cg_cells"], lambda n: 14 * 8 * n**2, "cells per side",
+                 "about 14 grids of cg_cells^2 values, 8 B each")
+    per_record = (len(StirredMillCase.series) + 1) * RECORD_VALUE_BYTES
+    check_memory("records_per_revolution", values["records_per_revolution"],
+                 lambda n: math.ceil(n * values["revolutions"]) * per_record,
+                 "records per revolution",
+                 f"{values['revolutions']:g} revolutions of records, {per_record} B each")
 
 
 def geometry(values):

@@ -36,6 +36,7 @@ import yaml
 from numba import njit
 from scipy import optimize, special
 
+from ...util import safe_yaml
 from .damage import damage_fraction
 
 # ---- constants ------------------------------------------------------------------------------
@@ -312,9 +313,9 @@ def _material(where, name, e, defaults, ks):
     return mat
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """YAML SafeLoader that refuses a repeated key: a copied material block left under its old
-    name would otherwise replace the original without a word."""
+class _UniqueKeyLoader(safe_yaml.LimitedSafeLoader):
+    """The bounded YAML loader (util.safe_yaml) that also refuses a repeated key: a copied
+    material block left under its old name would otherwise replace the original without a word."""
 
 
 class _DuplicateKey(ValueError):
@@ -339,14 +340,9 @@ def _parse(path, text):
     """({truncation: {name: TavaresMaterial}}, contacts) of the file ``path`` holding ``text``,
     checked as a whole; cached on the text, since every case of a study checks the same file."""
     try:
-        doc = yaml.load(text, Loader=_UniqueKeyLoader)
+        doc = safe_yaml.load(text, path, _UniqueKeyLoader)
     except _DuplicateKey as exc:
         raise ValueError(f"{path}: {exc}") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f"line {mark.line + 1}: " if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc).replace("\n", " ")
-        raise ValueError(f"{path}: {line}not valid YAML ({problem})") from None
     _mapping(f"{path}:", doc, TOP_KEYS, TOP_KEYS)
     model = _mapping(f"{path}: model", doc["model"], MODEL_KEYS,
                      ("emax_over_e50", "device_surface"))
@@ -396,6 +392,7 @@ def _resolve(path):
 def _checked(path):
     path = _resolve(path)
     try:
+        safe_yaml.check_size(path)
         text = path.read_text()
     except FileNotFoundError:
         raise FileNotFoundError(f"{path}: materials file not found") from None

@@ -1,0 +1,177 @@
+"""Property-based checks (hypothesis) of the geometric kernels against brute force written here:
+the closest point of a triangle (dense barycentric sampling), the distance to a frustum sheet
+(dense sampling of the surface of revolution), the cells a neighbour search visits along an axis
+(every point within reach falls in one of them), and the pour's clearance (pairwise distances).
+
+Derandomized and few examples: deterministic and cheap in CI; the kernels are the compiled ones,
+called from Python.
+"""
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+from hypothesis import Phase, given, settings
+from hypothesis import strategies as st
+
+from millsim.engine.insertion import Pour
+from millsim.engine.kinematics import FRUSTUM, WALL_COLUMNS, wall_contact_bounded
+from millsim.engine.mesh import EDGE_AB, EDGE_AC, EDGE_BC, FACE, closest_on_triangle
+from millsim.engine.neighbours import _cell_index, _cell_range
+
+# no explain phase: it traces every line a failing example runs (slow, and memory-hungry with
+# numpy arrays of this size)
+CHEAP = settings(max_examples=40, deadline=None, derandomize=True,
+                 phases=[Phase.explicit, Phase.reuse, Phase.generate, Phase.shrink])
+coord = st.floats(-1.0, 1.0, allow_nan=False, allow_infinity=False)
+point = st.tuples(coord, coord, coord)
+
+
+# ---- closest point of a triangle --------------------------------------------------------------
+
+def _sampled_triangle(tri, k=300):
+    """Points of the triangle on a barycentric grid of spacing 1/k (corners and edges included)."""
+    i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
+    keep = i + j <= k
+    u, v = i[keep] / k, j[keep] / k
+    return tri[0] + u[:, None] * (tri[1] - tri[0]) + v[:, None] * (tri[2] - tri[0])
+
+
+@CHEAP
+@given(a=point, b=point, c=point, y=st.tuples(*[st.floats(-2.0, 2.0)] * 3))
+def test_closest_point_of_a_triangle_is_the_nearest_point_of_it(a, b, c, y):
+    tri = np.array([a, b, c], float)
+    area2 = np.linalg.norm(np.cross(tri[1] - tri[0], tri[2] - tri[0]))
+    if area2 < 0.05:  # a sliver: its sampling would say little
+        return
+    y = np.asarray(y)
+    q0, q1, q2, region = closest_on_triangle(tri, *y)
+    q = np.array([q0, q1, q2])
+    # q lies in the triangle: barycentric coordinates >= 0 and q in its plane
+    m = np.column_stack([tri[1] - tri[0], tri[2] - tri[0]])
+    uv, *_ = np.linalg.lstsq(m, q - tri[0], rcond=None)
+    assert np.abs(m @ uv - (q - tri[0])).max() < 1e-12
+    assert uv.min() > -1e-12 and uv.sum() < 1 + 1e-12
+    # no sampled point is nearer; the nearest sample is within the grid's spacing
+    d = np.linalg.norm(y - q)
+    samples = np.linalg.norm(_sampled_triangle(tri) - y, axis=1)
+    longest = max(np.linalg.norm(tri[i] - tri[i - 1]) for i in range(3))
+    assert d <= samples.min() + 1e-12
+    assert d >= samples.min() - 2.0 * longest / 300
+    # the region named: a vertex is a corner, an edge a point on that edge, the face inside
+    if region == FACE:
+        assert uv.min() > -1e-12
+    elif region in (EDGE_AB, EDGE_AC, EDGE_BC):
+        ends = {EDGE_AB: (0, 1), EDGE_AC: (0, 2), EDGE_BC: (1, 2)}[region]
+        e = tri[ends[1]] - tri[ends[0]]
+        assert np.linalg.norm(np.cross(e, q - tri[ends[0]])) < 1e-12 * (1 + np.dot(e, e))
+    else:
+        assert np.abs(tri[region - 1] - q).max() == 0.0
+
+
+# ---- distance to a frustum sheet --------------------------------------------------------------
+
+def _axis(theta, phi):
+    return np.array([math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi),
+                     math.cos(theta)])
+
+
+@CHEAP
+@given(z0=st.floats(-0.5, 0.5), r0=st.floats(0.0, 0.6), dz=st.floats(-0.5, 0.5),
+       r1=st.floats(0.0, 0.6), theta=st.floats(0.0, math.pi), phi=st.floats(0.0, 2 * math.pi),
+       x=point)
+def test_frustum_distance_is_the_distance_to_the_nearest_point_of_the_sheet(z0, r0, dz, r1, theta,
+                                                                            phi, x):
+    if math.hypot(dz, r1 - r0) < 0.05:  # a degenerate sheet (a circle): refused by Simulation
+        return
+    axis, p = _axis(theta, phi), np.array([0.1, -0.2, 0.05])
+    wall = np.zeros(WALL_COLUMNS)
+    wall[0], wall[1:4], wall[4:7] = FRUSTUM, p, axis
+    wall[11:15] = z0, r0, z0 + dz, r1
+    r = 0.3
+    out = wall_contact_bounded(wall, *x, r)
+    dist = r - out[0]
+    n = np.array(out[1:4])
+    # brute force: the sheet sampled along its meridian segment and around the axis
+    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    s = np.linspace(0.0, 1.0, 401)[:, None]
+    ang = np.linspace(0.0, 2 * math.pi, 1441)[None, :]
+    z, rad = z0 + s * dz, r0 + s * (r1 - r0)
+    pts = (p[None, None] + z[..., None] * axis
+           + (rad * np.cos(ang))[..., None] * e1 + (rad * np.sin(ang))[..., None] * e2)
+    best = np.linalg.norm(pts - np.asarray(x), axis=2).min()
+    spacing = math.hypot(dz, r1 - r0) / 400 + 2 * math.pi * max(r0, r1) / 1440
+    assert dist <= best + 1e-12
+    assert dist >= best - spacing
+    # the normal points from the sheet to the centre: x - dist n is on the sheet
+    assert abs(np.linalg.norm(n) - 1.0) < 1e-12
+    foot = np.asarray(x) - dist * n - p
+    h = foot @ axis
+    rho = np.linalg.norm(foot - h * axis)
+    t = ((h - z0) * dz + (rho - r0) * (r1 - r0)) / (dz * dz + (r1 - r0) ** 2)
+    assert -1e-9 <= t <= 1 + 1e-9
+    assert math.hypot(h - (z0 + t * dz), rho - (r0 + t * (r1 - r0))) < 1e-9
+
+
+# ---- the cells a neighbour search visits ------------------------------------------------------
+
+@CHEAP
+@given(ncell=st.integers(1, 12), size=st.floats(0.1, 2.0), reach=st.floats(0.0, 5.0),
+       fa=st.floats(-0.2, 1.2), periodic=st.booleans())
+def test_the_cells_visited_hold_every_point_within_reach(ncell, size, reach, fa, periodic):
+    """Along one axis of a grid of ncell cells from lo = -0.3: every point xb within ``reach``
+    of xa (min image when periodic; 401 of them) lies in a visited cell, and no cell is visited
+    twice. The ends are a hair inside: a pair at exactly the reach is not listed (d < cut), and
+    wrapping it rounds either way."""
+    lo, box = -0.3, ncell * size
+    xa = lo + fa * box
+    xb = xa + np.linspace(-1.0, 1.0, 401) * reach * (1.0 - 1e-9)
+    if periodic:  # positions live in the box
+        xa, xb = lo + (xa - lo) % box, lo + (xb - lo) % box
+    first, count = _cell_range(xa, reach, lo, size, ncell, periodic)
+    visited = [(first + k) % ncell if periodic else first + k for k in range(count)]
+    assert len(set(visited)) == len(visited)
+    assert all(0 <= c < ncell for c in visited)
+    assert {_cell_index(b, lo, size, ncell) for b in xb} <= set(visited)
+
+
+# ---- the pour's clearance ---------------------------------------------------------------------
+
+class _Charge:
+    """What ``Pour.fill`` reads of a Simulation: time, particles, no walls or meshes."""
+
+    def __init__(self, x, radius, time):
+        self.particles = SimpleNamespace(x=np.asarray(x, float).reshape(-1, 3),
+                                         radius=np.asarray(radius, float))
+        self.time, self.walls, self.mesh_clearance = time, [], None
+
+    def add_particles(self, x, r, material, v=None, tags=None):
+        p = self.particles
+        first = len(p.radius)
+        p.x, p.radius = np.vstack([p.x, x]), np.append(p.radius, r)
+        return np.arange(first, len(p.radius))
+
+
+@CHEAP
+@given(existing=st.lists(st.tuples(st.floats(-0.6, 1.6), st.floats(-0.6, 1.6),
+                                   st.floats(-0.6, 1.6), st.floats(0.01, 0.6)), max_size=6),
+       rmin=st.floats(0.02, 0.1), spread=st.floats(1.0, 2.0), gap=st.floats(0.0, 0.05),
+       seed=st.integers(0, 1000))
+def test_poured_spheres_clear_every_sphere_by_the_gap(existing, rmin, spread, gap, seed):
+    """Existing spheres (some larger than the poured, some with centres outside the region)
+    and the poured ones: every pair at least ``gap`` apart."""
+    ex = np.array([e[:3] for e in existing]).reshape(-1, 3)
+    er = np.array([e[3] for e in existing])
+    charge = _Charge(ex, er, time=1.0)
+    pour = Pour(lo=(0, 0, 0), hi=(1, 1, 1), count=60, rate=60.0, material="m",
+                radius_range=(rmin, rmin * spread), gap=gap, seed=seed, start=0.0, attempts=20)
+    pour.fill(charge)
+    x, r = charge.particles.x, charge.particles.radius
+    new = np.arange(len(er), len(r))
+    assert pour.inserted == len(new) > 0
+    d = np.linalg.norm(x[new, None] - x[None], axis=2) - r[new, None] - r[None]
+    d[np.arange(len(new)), new] = np.inf
+    assert d.min() >= gap - 1e-12
+    assert (x[new] - r[new, None] >= -1e-12).all() and (x[new] + r[new, None] <= 1 + 1e-12).all()
