@@ -28,8 +28,11 @@ CHROMIUM = os.environ.get("MILLSIM_CHROMIUM") or shutil.which("chromium") or "/u
 
 # The shape and length of the quick study's page (9 verdicts, 2 failed, every study's table); the
 # numbers are made up, only the layout is tested.
-TAVARES_RULE = ("eq 1 inside the 95 % Clopper-Pearson interval of the simulated fraction broken "
-                "at >= 90 % of the energies (millsim.analysis.tavares_verification.pass_rule)")
+# the rule as the quick study words it: its length sets the table's width, and so the page's
+TAVARES_RULE = ("eq 1 against the broken count at each energy, exact two-sided binomial test; the "
+                "energies (impacts) combined by Bonferroni, the run's verdicts by Holm at 5 % "
+                "family-wise (millsim.analysis.tavares_verification.binomial_p_value, bonferroni, "
+                "holm)")
 TWIN_RULE = ("the synthetic twin's generating value inside the 95 % interval of the calibrated "
              "one (millsim.analysis.stirred_mill.interval)")
 SUMMARY = dict(
@@ -71,7 +74,19 @@ SUMMARY = dict(
                      "twin's generating value"],
                     ["friction \u03bc", "0.3", "0.29", "[0.21, 0.38]", "0.3"]]),
     ],
-    command="millsim report --tavares results/aggregate/tavares_verification.nc ...",
+    # the quick study's command: a literal block does not wrap, so it sets the page's width
+    command=("millsim report"
+             " --ballmill results/aggregate/ballmill.nc"
+             " --forcechain results/aggregate/ballmill_forcechain.nc"
+             " --bed results/aggregate/bed_breakage.nc"
+             " --tavares results/aggregate/tavares_verification.nc"
+             " --stirred results/aggregate/stirred_mill.nc"
+             " --calibration results/calibration/stirred_mill_friction.json"
+             " results/calibration/stirred_mill_viscosity.json"
+             " results/calibration/stirred_mill_prediction.csv"
+             " config/reference/stirred_mill_power.csv"
+             " --json results/report/summary.json"
+             " --rst results/report/landing.rst"),
 )
 
 SNAKEFILE = f"""\
@@ -88,7 +103,8 @@ rule figure:
         report(
             "results/plots/figure.svg",
             caption="{ROOT / 'workflow/report/plot.rst'}",
-            category="Ball mill",
+            # the study's longest category name: it sets the menu's width, and so the page's
+            category="Tavares single-particle verification",
         ),
     params:
         caption="A figure, so that the report has a category as the study's has.",
@@ -137,6 +153,8 @@ def test_report_opens_on_its_title_warning_and_verdicts(tmp_path, browser):
         box = element.bounding_box()
         assert box is not None
         assert 0 <= box["y"] and box["y"] + box["height"] <= HEIGHT, (element, box)
+        # and not cut at the right edge (a page wider than its pane scrolls sideways)
+        assert 0 <= box["x"] and box["x"] + box["width"] <= WIDTH, (element, box)
     # nothing above the scroll origin: the page's top is where its scroll pane starts
     top = page.evaluate("""() => {
         const doc = document.querySelector("h1.title").closest(".document");
