@@ -1,6 +1,7 @@
 """Small builders shared by the tests."""
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -62,3 +63,19 @@ def dense_bed(n, seed=4, force_sum="records"):
     return Simulation(PhysicsSpec(dim=3, walls=True, force_sum=force_sum), table, x=x,
                       radius=np.full(n, 1e-3), material="m", v=rng.normal(0, 0.05, (n, 3)),
                       walls=walls, step=StepPolicy(dt=2e-5))
+
+
+class PourCharge:
+    """What ``Pour.fill`` reads of a Simulation: the time, the particles, no walls, no meshes (a
+    stand-in: building a Simulation would compile the neighbour list for nothing)."""
+
+    def __init__(self, x, radius, time):
+        self.particles = SimpleNamespace(x=np.asarray(x, float).reshape(-1, 3),
+                                         radius=np.asarray(radius, float))
+        self.time, self.walls, self.mesh_clearance = time, [], None
+
+    def add_particles(self, x, r, material, v=None, tags=None):
+        p = self.particles
+        first = len(p.radius)
+        p.x, p.radius = np.vstack([p.x, x]), np.append(p.radius, r)
+        return np.arange(first, len(p.radius))

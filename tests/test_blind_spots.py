@@ -21,7 +21,6 @@ an independent computation written here.
 """
 
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -34,7 +33,7 @@ from millsim.engine import PhysicsSpec, Simulation, SimulationError, StepPolicy
 from millsim.engine.insertion import Pour
 from millsim.models import Interaction, Material, MaterialTable
 
-from helpers import clipped_damping_ratio
+from helpers import PourCharge, clipped_damping_ratio
 
 R = 1e-3
 RHO = 2500.0
@@ -48,26 +47,11 @@ BOUNDED_HERTZ = PhysicsSpec(dim=3, walls=True, bounded_walls=True)  # the silo's
 
 # ---- the pour next to a larger particle -------------------------------------------------------
 
-class _Charge:
-    """What ``Pour.fill`` reads of a Simulation: the time, the particles, no walls, no meshes (a
-    stand-in: building a Simulation would compile the neighbour list for nothing here)."""
-
-    def __init__(self, x, radius, time):
-        self.particles = SimpleNamespace(x=np.asarray(x, float), radius=np.asarray(radius, float))
-        self.time, self.walls, self.mesh_clearance = time, [], None
-
-    def add_particles(self, x, r, material, v=None, tags=None):
-        p = self.particles
-        first = len(p.radius)
-        p.x, p.radius = np.vstack([p.x, x]), np.append(p.radius, r)
-        return np.arange(first, len(p.radius))
-
-
 def test_a_pour_keeps_clear_of_a_larger_particle_beside_its_region():
     """A 5 mm sphere whose centre lies 4 mm outside the pouring box reaches 1 mm into it; the
     0.5 mm spheres poured must keep clear of it (and of each other) with the asked gap."""
     big, small, gap = 5e-3, 5e-4, 1e-5
-    charge = _Charge([[-4e-3, 5e-3, 5e-3]], [big], time=1.0)
+    charge = PourCharge([[-4e-3, 5e-3, 5e-3]], [big], time=1.0)
     pour = Pour(lo=(0, 0, 0), hi=(0.01, 0.01, 0.01), count=300, rate=300.0, material="m",
                 radii=(small,), gap=gap, seed=5, start=0.0)
     pour.fill(charge)

@@ -18,33 +18,17 @@ import math
 import numpy as np
 import pytest
 import trimesh
+from test_mesh_walls import RHO, R, make_sim, mesh_wall
 
-from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.engine import PhysicsSpec
 from millsim.engine.mesh_io import box_mesh
-from millsim.models import Interaction, Material, MaterialTable
 
-R = 1e-3
-RHO = 2500.0
-K_N = 2e3
 MASS = RHO * 4.0 / 3.0 * math.pi * R**3
 MESH_SPEC = PhysicsSpec(dim=3, walls=True, mesh_walls=True)
 PLAIN_SPEC = PhysicsSpec(dim=3, walls=True)
 TRANSLATING_MESH = PhysicsSpec(dim=3, walls=True, mesh_walls=True, translating_walls=True)
-E = 0.5  # restitution
-
-
-def make_sim(spec, x, v=None, w=None, walls=(), friction=0.5, gravity=(0.0, 0.0, 0.0),
-             impact_speed=1.0):
-    table = MaterialTable([Material("m", RHO)], {"*": Interaction(
-        restitution=E, friction=friction, normal_stiffness=K_N)}, "linear_history")
-    n = len(x)
-    return Simulation(spec, table, x=np.asarray(x, float), radius=np.full(n, R), material="m",
-                      v=v, w=w, walls=list(walls), gravity=gravity, skin=0.2 * R,
-                      step=StepPolicy(impact_speed=impact_speed))
-
-
-def mesh_wall(vertices, faces, **motion):
-    return dict(kind="mesh", vertices=vertices, faces=faces, material="m", **motion)
+E = 0.5  # restitution of test_mesh_walls.make_sim
+NO_GRAVITY = (0.0, 0.0, 0.0)
 
 
 def slab(cells, half, depth):
@@ -107,7 +91,8 @@ def test_a_sphere_behind_the_faces_feels_nothing():
     vertices, faces = slab(4, 0.005, 0.01)
     x0 = np.array([-3e-4, -2e-4, -0.9 * R])
     v0 = np.array([0.2, 0.1, 0.002])
-    sim = make_sim(MESH_SPEC, [x0], [v0], walls=[mesh_wall(vertices, faces)])
+    sim = make_sim(MESH_SPEC, [x0], [v0], walls=[mesh_wall(vertices, faces)],
+                   gravity=NO_GRAVITY)
     steps = 1000
     sim.run(steps)
     t = steps * sim.dt
@@ -125,8 +110,8 @@ def test_a_fast_rising_plate_strikes_a_resting_sphere_instead_of_passing_through
     speed = 0.5
     vertices, faces = slab(4, 0.005, 0.002)
     x0 = [0.0003, -0.0002, R + 3e-3]
-    sim = make_sim(TRANSLATING_MESH, [x0], walls=[mesh_wall(vertices, faces,
-                                                            velocity=(0.0, 0.0, speed))])
+    sim = make_sim(TRANSLATING_MESH, [x0], gravity=NO_GRAVITY,
+                   walls=[mesh_wall(vertices, faces, velocity=(0.0, 0.0, speed))])
     steps = int(4.5e-3 / speed / sim.dt)  # the plate's travel to contact and beyond
     sim.run(steps)
     top = speed * steps * sim.dt
@@ -143,7 +128,7 @@ def test_a_turning_paddle_strikes_a_resting_sphere_instead_of_passing_through():
     vertices, faces = box_mesh((0.0, -0.5e-3, -1e-3), (0.01, 0.5e-3, 1e-3))
     phi = math.radians(30.0)
     x0 = [0.005 * math.cos(phi), 0.005 * math.sin(phi), 0.0]
-    sim = make_sim(MESH_SPEC, [x0], friction=0.0,
+    sim = make_sim(MESH_SPEC, [x0], friction=0.0, gravity=NO_GRAVITY,
                    walls=[mesh_wall(vertices, faces, axis=(0, 0, 1), omega=omega)])
     steps = int(8e-3 / sim.dt)
     sim.run(steps)

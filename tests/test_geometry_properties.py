@@ -8,7 +8,6 @@ called from Python.
 """
 
 import math
-from types import SimpleNamespace
 
 import numpy as np
 from hypothesis import Phase, given, settings
@@ -18,6 +17,8 @@ from millsim.engine.insertion import Pour
 from millsim.engine.kinematics import FRUSTUM, WALL_COLUMNS, wall_contact_bounded
 from millsim.engine.mesh import EDGE_AB, EDGE_AC, EDGE_BC, FACE, closest_on_triangle
 from millsim.engine.neighbours import _cell_index, _cell_range
+
+from helpers import PourCharge
 
 # no explain phase: it traces every line a failing example runs (slow, and memory-hungry with
 # numpy arrays of this size)
@@ -139,21 +140,6 @@ def test_the_cells_visited_hold_every_point_within_reach(ncell, size, reach, fa,
 
 # ---- the pour's clearance ---------------------------------------------------------------------
 
-class _Charge:
-    """What ``Pour.fill`` reads of a Simulation: time, particles, no walls or meshes."""
-
-    def __init__(self, x, radius, time):
-        self.particles = SimpleNamespace(x=np.asarray(x, float).reshape(-1, 3),
-                                         radius=np.asarray(radius, float))
-        self.time, self.walls, self.mesh_clearance = time, [], None
-
-    def add_particles(self, x, r, material, v=None, tags=None):
-        p = self.particles
-        first = len(p.radius)
-        p.x, p.radius = np.vstack([p.x, x]), np.append(p.radius, r)
-        return np.arange(first, len(p.radius))
-
-
 @CHEAP
 @given(existing=st.lists(st.tuples(st.floats(-0.6, 1.6), st.floats(-0.6, 1.6),
                                    st.floats(-0.6, 1.6), st.floats(0.01, 0.6)), max_size=6),
@@ -164,7 +150,7 @@ def test_poured_spheres_clear_every_sphere_by_the_gap(existing, rmin, spread, ga
     and the poured ones: every pair at least ``gap`` apart."""
     ex = np.array([e[:3] for e in existing]).reshape(-1, 3)
     er = np.array([e[3] for e in existing])
-    charge = _Charge(ex, er, time=1.0)
+    charge = PourCharge(ex, er, time=1.0)
     pour = Pour(lo=(0, 0, 0), hi=(1, 1, 1), count=60, rate=60.0, material="m",
                 radius_range=(rmin, rmin * spread), gap=gap, seed=seed, start=0.0, attempts=20)
     pour.fill(charge)

@@ -6,7 +6,6 @@ workflow refusing to load), one line naming the key or file, and no file written
 runs here."""
 
 import json
-import os
 import re
 import shutil
 from pathlib import Path
@@ -187,16 +186,6 @@ def tiny_config(reference):
                             "eta_rpm": 2500, "eta": [0.03, 0.1]},
         },
     }
-
-
-@pytest.fixture
-def workdir(tmp_path, monkeypatch):
-    for name in ("Snakefile", "workflow", "config"):
-        source = ROOT / name
-        (shutil.copytree if source.is_dir() else shutil.copy)(source, tmp_path / name)
-    monkeypatch.chdir(tmp_path)  # the API changes into its workdir; undone after the test
-    monkeypatch.setenv("PATH", os.environ["PATH"])  # common.smk prepends the venv; undone too
-    return tmp_path
 
 
 def snakemake(workdir, config, target, dryrun=True, **output):

@@ -2,9 +2,7 @@
 
 import copy
 import math
-import os
 import re
-import shutil
 from pathlib import Path
 
 import pytest
@@ -36,16 +34,6 @@ def tiny_config(speeds):
             "animation": {"n_over_nc": 1.0, "duration": 0.015},
         }
     }
-
-
-@pytest.fixture
-def workdir(tmp_path, monkeypatch):
-    for name in ("Snakefile", "workflow", "config"):
-        source = ROOT / name
-        (shutil.copytree if source.is_dir() else shutil.copy)(source, tmp_path / name)
-    monkeypatch.chdir(tmp_path)  # the API changes into its workdir; undone after the test
-    monkeypatch.setenv("PATH", os.environ["PATH"])  # common.smk prepends the venv; undone too
-    return tmp_path
 
 
 def snakemake(workdir, config, dryrun=False):
