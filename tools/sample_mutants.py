@@ -192,7 +192,7 @@ def _imports(path, package):
             base = package.split(".")[:len(package.split(".")) - depth + 1]
             frm = ".".join(base + ([frm.lstrip(".")] if frm.lstrip(".") else []))
         found.add(frm)
-        found.update(f"{frm}.{n.strip()}" for n in names.strip("()").split(",") if n.strip())
+        found.update(f"{frm}.{n.split()[0]}" for n in names.strip("()").split(",") if n.strip())
     return {f for f in found if f.startswith("millsim")}
 
 
