@@ -95,7 +95,8 @@ def test_landing_page_holds_the_headline_numbers_of_the_aggregates(tmp_path):
     assert "highest comminution rate: 10 \u00b1 0.5 s\u207b\u00b9 at n/n\\_c = 1" in text
     assert "highest drive power: 3 W at n/n\\_c = 1.5" in text
     # stirred: 3 W at eta 0.1 Pa s and 2000 min-1 (rpm / 1000 (1 + 10 eta)), its interval 10 %
-    assert "   * - 0.1\n     - 2000\n     - 4 \u00b1 0.4\n     - 45 / 61 / -6" in text
+    # and its energy-balance residual 2e-5 as a per cent, in the table too
+    assert "   * - 0.1\n     - 2000\n     - 4 \u00b1 0.4\n     - 45 / 61 / -6\n     - 0.002\n" in text
     assert "All 1 checks passed." in text
     assert "largest 0.002 %" in text  # the residual 2e-5, as a per cent
     assert "SYNTHETIC" not in text  # no calibration given, no flag
