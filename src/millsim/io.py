@@ -42,6 +42,7 @@ import xarray as xr
 import millsim
 
 from .util import checkpoint
+from .util.disk import format_bytes, free_bytes
 
 __all__ = ["write_netcdf", "write_case", "read_case", "read_table", "case_parameters",
            "atomic_target", "check_writable", "WriteError", "open_snapshots", "SnapshotWriter",
@@ -109,27 +110,12 @@ _PROBE_MARGIN = 256 * 1024
 _PROBE_MAX = 64 * 1024**2  # reserving more would fill a tmpfs's RAM or take long where emulated
 
 
-def _free_bytes(directory: Path) -> int | None:
-    try:
-        st = os.statvfs(directory)
-    except (OSError, AttributeError):  # no statvfs (Windows)
-        return None
-    return st.f_bavail * st.f_frsize
-
-
-def _bytes(n: float) -> str:
-    for unit in ("B", "kB", "MB", "GB"):
-        if n < 1000 or unit == "GB":
-            return f"{n:.3g} {unit}"
-        n /= 1000
-
-
 def _write_error(path: Path, code: int, need: int = 0) -> WriteError:
     cause = _WRITE_CAUSES.get(code) or os.strerror(code)
-    free = _free_bytes(path.parent) if code in (errno.ENOSPC, errno.EDQUOT) else None
+    free = free_bytes(path.parent) if code in (errno.ENOSPC, errno.EDQUOT) else None
     if free is not None:
-        cause += f": {_bytes(free)} free in {path.parent}"
-        cause += f", at least {_bytes(need)} needed" if need > free else ""
+        cause += f": {format_bytes(free)} free in {path.parent}"
+        cause += f", at least {format_bytes(need)} needed" if need > free else ""
     error = WriteError(f"cannot write {path}: {cause}")
     error.errno = code
     return error
@@ -137,7 +123,7 @@ def _write_error(path: Path, code: int, need: int = 0) -> WriteError:
 
 def _probe_space(directory: Path, need: int) -> int | None:
     """The errno of reserving ``need`` bytes in ``directory`` (None: it fits)."""
-    free = _free_bytes(directory)
+    free = free_bytes(directory)
     if free is not None and need > free:
         return errno.ENOSPC
     try:
@@ -190,7 +176,7 @@ def atomic_target(path: str | os.PathLike[str], size: int = 0) -> Iterator[Path]
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         _remove_stale(path)
-        free = _free_bytes(path.parent)
+        free = free_bytes(path.parent)
         if free is not None and size > free:
             raise _write_error(path, errno.ENOSPC, size)
         yield tmp

@@ -233,13 +233,13 @@ class RunContext:
         counted = _snapshot_frames(values)
         if counted is None:
             return
-        from ..util.snapshots import format_bytes
+        from ..util.disk import format_bytes
 
         frames, how = counted
         total, free = frames * writer.frame_bytes, writer.free_bytes()
         what = (f"--snapshots: about {format_bytes(total)} for {frames} frames ({how}, "
                 f"{format_bytes(writer.frame_bytes)} each)")
-        if total > free:
+        if free is not None and total > free:
             writer.discard()
             raise ValueError(f"{what}, more than the {format_bytes(free)} free on the disk of "
                              f"{writer.path}; record less often or write them elsewhere")
@@ -247,7 +247,7 @@ class RunContext:
             print(f"millsim: warning: {what}", file=sys.stderr, flush=True)
 
 
-SNAPSHOT_WARN_BYTES = 2**30
+SNAPSHOT_WARN_BYTES = 10**9
 # (frames, how counted) from a scene's parameters: duration or its bound over the record cadence
 _FRAME_COUNTS = (("duration", "record_interval"), ("max_time", "record_interval"),
                  ("steps", "record_every"), ("revolutions", "records_per_revolution"))

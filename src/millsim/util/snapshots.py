@@ -31,7 +31,9 @@ from typing import Any
 import h5py
 import numpy as np
 
-__all__ = ["SnapshotWriter", "SNAPSHOT_UNITS", "format_bytes"]
+from .disk import format_bytes, free_bytes
+
+__all__ = ["SnapshotWriter", "SNAPSHOT_UNITS"]
 
 # XDMF names integer types of one byte Char/UChar and all others Int/UInt
 _XDMF_NUMBER_TYPES = {("f", 4): "Float", ("f", 8): "Float", ("i", 1): "Char", ("u", 1): "UChar"}
@@ -51,15 +53,6 @@ _GRIDS = ("walls", "contacts")
 # free space kept besides a frame: HDF5's metadata grows in blocks, and the XDMF file comes last
 _MARGIN_BYTES = 256 * 1024
 _DATASET_OVERHEAD = 2048  # object header, attributes and B-tree share per dataset (estimate)
-
-
-def format_bytes(n: float) -> str:
-    """``n`` bytes for a message: 512 B, 3.2 MiB."""
-    for unit in ("B", "KiB", "MiB", "GiB"):
-        if n < 1024 or unit == "GiB":
-            return f"{n:.3g} {unit}" if unit != "B" else f"{n:.0f} B"
-        n /= 1024
-    raise AssertionError
 
 
 class SnapshotWriter:
@@ -138,17 +131,13 @@ class SnapshotWriter:
         """Raise OSError where the disk has not room for a frame of about ``nbytes``."""
         need = 2 * max(nbytes, self.frame_bytes) + _MARGIN_BYTES
         free = self.free_bytes()
-        if free < need:
+        if free is not None and free < need:
             raise OSError(f"disk full: {format_bytes(free)} free, a frame needs about "
                           f"{format_bytes(max(nbytes, self.frame_bytes))}")
 
-    def free_bytes(self) -> int:
-        """Free space [B] on the snapshot file's disk."""
-        where = self.path.absolute().parent
-        while not where.exists() and where != where.parent:  # created with the first frame
-            where = where.parent
-        stat = os.statvfs(where)
-        return stat.f_bavail * stat.f_frsize
+    def free_bytes(self) -> int | None:
+        """Free space [B] on the snapshot file's disk (None where the system cannot say)."""
+        return free_bytes(self.path)
 
     # ---- writing ---------------------------------------------------------------------------
     def write(self, time: float, position: Any, radius: Any, velocity: Any, *,
