@@ -48,7 +48,7 @@ from numba import njit, prange
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from millsim.engine.loop import FAST, PRANGE_ONLY  # noqa: E402
+from millsim.engine.jit_options import FAST, PRANGE_ONLY  # noqa: E402
 from millsim.scenes import packing  # noqa: E402
 from millsim.scenes.base import get_scene  # noqa: E402
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from numba import njit
 
 from ..engine.integrators import DAMPING_LIMIT, GEAR_OMEGA_DT_LIMIT
-from ..engine.loop import FAST
+from ..engine.jit_options import FAST
 from ..engine.models import stable_identity
 from ..engine.timestep import (
     RAYLEIGH_LIMIT,

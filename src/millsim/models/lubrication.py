@@ -37,9 +37,9 @@ import numpy as np
 from numba import njit
 
 from ..engine.implicit import RW_VJ, row_absent, row_write
+from ..engine.jit_options import FAST
 from ..engine.models import FluidKernels, ParticleModel, stable_identity
 from ..engine.timestep import StepBound, TimeStepError
-from .contact import FAST
 
 PI = math.pi
 
