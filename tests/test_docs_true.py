@@ -1,0 +1,132 @@
+"""The README and the guides in docs/ name only things that exist: every repository path, every
+test named with ``::``, every ``millsim.`` dotted name, module-relative file and class attribute
+they quote in backticks. The measurement pages of docs/results/ are dated records of their commit
+and are left out."""
+
+import importlib
+import inspect
+import pkgutil
+import re
+from pathlib import Path
+
+import pytest
+
+import millsim
+
+ROOT = Path(__file__).resolve().parents[1]
+GUIDES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+TOP_DIRS = ("src", "tests", "tools", "bench", "docs", "workflow", "config", "examples", "profiles")
+SUBPACKAGES = ("engine", "models", "scenes", "analysis", "plots", "util")
+QUOTED = re.compile(r"`([^`\n]+)`")
+REPO_PATH = re.compile(rf"((?:{'|'.join(TOP_DIRS)})/[\w./-]+?)/?(?:::(\w+))?")
+PACKAGE_FILE = re.compile(rf"((?:{'|'.join(SUBPACKAGES)})/[\w/]*?(?:\.py)?)/?")
+DOTTED = re.compile(r"[A-Za-z_]\w*(?:\.[A-Za-z_]\w*)+")
+
+
+def _modules():
+    found = {"millsim": millsim}
+    for info in pkgutil.walk_packages(millsim.__path__, "millsim."):
+        found[info.name] = importlib.import_module(info.name)
+    return found
+
+
+MODULES = _modules()
+CLASSES = {name: obj for module in MODULES.values() for name, obj in vars(module).items()
+           if inspect.isclass(obj) and obj.__module__.startswith("millsim")}
+
+
+def _quoted(path):
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        for match in QUOTED.finditer(line):
+            yield number, re.sub(r"\(.*\)$", "", match.group(1).strip())
+
+
+def _has_attribute(obj, name):
+    return hasattr(obj, name) or name in getattr(obj, "__dataclass_fields__", {}) or \
+        name in getattr(obj, "__annotations__", {})
+
+
+def _resolve(parts):
+    """Whether millsim.<parts> names a module or an attribute chain below one."""
+    for cut in range(len(parts), 0, -1):
+        module = MODULES.get("millsim." + ".".join(parts[:cut]))
+        if module is None:
+            continue
+        obj = module
+        for name in parts[cut:]:
+            if not _has_attribute(obj, name):
+                return False
+            obj = getattr(obj, name, None)
+        return True
+    return False
+
+
+def problems(path):
+    """(line, quoted text, what is wrong) for every quoted name of PATH that does not exist."""
+    found = []
+    for number, text in _quoted(path):
+        if any(mark in text for mark in "*<{$ "):
+            continue  # a pattern or a placeholder, not a name
+        if match := REPO_PATH.fullmatch(text):
+            target = ROOT / match.group(1)
+            if not target.exists():
+                found.append((number, text, "no such path"))
+            elif match.group(2) and not re.search(rf"def {match.group(2)}\b", target.read_text()):
+                found.append((number, text, "no such test"))
+        elif match := PACKAGE_FILE.fullmatch(text):
+            if not (ROOT / "src" / "millsim" / match.group(1)).exists():
+                found.append((number, text, "no such file in src/millsim"))
+        elif DOTTED.fullmatch(text):
+            parts = text.split(".")
+            if parts[0] == "millsim":
+                parts = parts[1:]
+            if parts[0] in SUBPACKAGES:
+                if not _resolve(parts):
+                    found.append((number, text, "no such module or name"))
+            elif parts[0] in CLASSES and len(parts) == 2:
+                if not _has_attribute(CLASSES[parts[0]], parts[1]):
+                    found.append((number, text, f"{parts[0]} has no {parts[1]}"))
+    return found
+
+
+@pytest.mark.parametrize("path", GUIDES, ids=lambda p: p.name)
+def test_quoted_names_exist(path):
+    assert problems(path) == []
+
+
+def test_the_checker_sees_a_stale_name(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("`tests/test_engine.py::no_such_test`, `engine/no_such.py`, "
+                    "`millsim.engine.simulation.NoSuchThing`, `Simulation.no_such_method`, "
+                    "`tests/test_engine.py`, `engine/mesh.py`, `Simulation.run`, `io.py`\n")
+    assert [what for _, _, what in problems(page)] == [
+        "no such test", "no such file in src/millsim", "no such module or name",
+        "Simulation has no no_such_method"]
+
+
+# quoted identifiers of other programs, or the reader's own (an ore of theirs), that the code base
+# rightly never names
+FOREIGN = {"Law2_ScGeom_ImplicitLubricationPhys", "my_ore"}
+CODE_FILES = [p for d in ("src", "tests", "config", "workflow", "tools", "bench", "examples", "profiles")
+              for p in (ROOT / d).rglob("*") if p.is_file() and
+              p.suffix in (".py", ".yaml", ".yml", ".smk", ".rst", ".sh", ".json")]
+CODE = "\n".join([p.read_text(errors="replace") for p in CODE_FILES] +
+                 [(ROOT / f).read_text() for f in ("Snakefile", "Makefile", "pyproject.toml")])
+IDENTIFIER = re.compile(r"[a-z]\w*_\w+|[A-Z][a-z]+[A-Z]\w*")  # snake_case or CamelCase
+
+
+@pytest.mark.parametrize("path", GUIDES, ids=lambda p: p.name)
+def test_quoted_identifiers_occur_in_the_code(path):
+    """A quoted snake_case or CamelCase word (a function, key, variable, class) that no source,
+    config or workflow file contains is a name the code no longer has."""
+    stale = sorted({text for _, text in _quoted(path) if IDENTIFIER.fullmatch(text)
+                    and text not in FOREIGN and not re.search(rf"\b{text}\b", CODE)})
+    assert stale == []
+
+
+def test_the_engine_guide_names_every_physics_switch():
+    from millsim.engine.spec import PhysicsSpec
+
+    guide = (ROOT / "docs" / "engine.md").read_text()
+    missing = [f for f in PhysicsSpec.__dataclass_fields__ if f"`{f}`" not in guide]
+    assert missing == []
