@@ -5,6 +5,7 @@ residual cell, the Tavares rule texts and the state of a check without a p-value
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 import xarray as xr
 from test_report import stirred_aggregate
@@ -82,3 +83,14 @@ def test_a_check_without_a_p_value_is_undecided_and_an_old_one_keeps_its_rule(tm
                              ["verdicts"])
     assert [(v["check"], v["status"]) for v in verdicts] == [
         ("probability: no p", report.UNDECIDED), ("probability: old", report.FAILED)]
+
+
+def test_the_prediction_headline_is_the_largest_relative_residual(tmp_path):
+    from test_report import calibration_files
+
+    paths = calibration_files(tmp_path)
+    pd.DataFrame(dict(rpm=[2000.0, 3000.0], reference=[100.0, 50.0],
+                      residual=[-5.0, 2.0])).to_csv(paths[2], index=False)
+    cal = report.calibration(*paths)
+    assert cal["numbers"]["prediction_max_relative_residual"] == pytest.approx(0.05, rel=1e-12)
+    assert dict(cal["headline"])["prediction (stage 3)"].endswith("5 % over 2 points")
