@@ -44,3 +44,18 @@ def test_evidence_of_a_missing_folder_is_refused_in_one_line(tmp_path, capsys):
     assert main(["evidence", "--docs", str(tmp_path / "nowhere")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "nowhere" in err[0]
+
+
+def test_a_second_hash_counts_within_60_characters_after_the_first():
+    first, second = "aaaaaaaaaaaa", "bbbbbbbbbbbb"
+    near = f"engine {first}" + "." * 59 + f" and {second}"  # 60 characters between them
+    far = f"engine {first}" + "." * 60 + f" and {second}"
+    assert [h for _, _, h in evidence.engine_hashes(near)] == [first, second]
+    assert [h for _, _, h in evidence.engine_hashes(far)] == [first]
+
+
+def test_the_word_engine_ending_the_line_before_reaches_back_60_characters():
+    hexes = "cccccccccccc"
+    within = "engine" + " " * 54 + "\n" + hexes  # "engine" starts the line's last 60 characters
+    assert evidence.engine_hashes(within) == [(2, "", hexes)]
+    assert evidence.engine_hashes("engine" + " " * 55 + "\n" + hexes) == []
