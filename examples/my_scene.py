@@ -18,8 +18,11 @@ package's pyproject.toml:
 A scene is its parameters (``Param``: default, unit, allowed range, checked before the run), a
 ``Case`` (builds the Simulation; what it records, when it is done, its summaries) and
 ``register(Scene(...))``; the driver does the rest: progress, checkpoints, the case file with its
-provenance. The built-in scenes in src/millsim/scenes/ are written the same way (collision.py is
-the smallest); examples/simulation_by_hand.py builds the same Simulation without a scene.
+provenance. What the case file holds is declared once, in the Case's tables: ``series`` (recorded
+as the run goes) and ``outputs`` (the summaries, with dims, units and long names); ``finish``
+returns only the values of the outputs, and the driver refuses one that is missing or undeclared.
+The built-in scenes in src/millsim/scenes/ are written the same way (collision.py is the
+smallest); examples/simulation_by_hand.py builds the same Simulation without a scene.
 """
 
 import math
@@ -29,7 +32,7 @@ import numpy as np
 from millsim.engine import PhysicsSpec, Simulation
 from millsim.models import Interaction, Material, MaterialTable
 from millsim.scenes.base import TIME_STEP_PARAMS, Param, Scene, register, step_policy
-from millsim.scenes.driver import Case, Series
+from millsim.scenes.driver import Case, Output, Series
 
 G = 9.81  # [m s-2]
 
@@ -64,6 +67,10 @@ class DropCase(Case):
 
     series = (Series("mean_height", "m", "mean height of the sphere centres above the floor"),
               Series("max_speed", "m s-1", "largest sphere speed"))
+    outputs = (Output("rest_height", (), "m", "mean height of the centres at the end"),
+               Output("rest_height_expected", (), "m", "radius less the overlap m g / k_n of a "
+                      "sphere resting on the floor"),
+               Output("settle_time", (), "s", "time to rest"))
 
     def __init__(self, values):
         super().__init__()
@@ -103,15 +110,9 @@ class DropCase(Case):
     def finish(self):
         v = self.v
         mass = v["density"] * 4.0 / 3.0 * math.pi * v["radius"] ** 3
-        data = {
-            "rest_height": ((), float(self.sim.particles.x[:, 2].mean()),
-                            {"units": "m", "long_name": "mean height of the centres at the end"}),
-            "rest_height_expected": ((), v["radius"] - mass * G / v["normal_stiffness"],
-                                     {"units": "m", "long_name": "radius less the overlap m g / k_n"
-                                      " of a sphere resting on the floor"}),
-            "settle_time": ((), self.sim.time, {"units": "s", "long_name": "time to rest"}),
-        }
-        return data, {}, {}
+        return {"rest_height": float(self.sim.particles.x[:, 2].mean()),
+                "rest_height_expected": v["radius"] - mass * G / v["normal_stiffness"],
+                "settle_time": self.sim.time}
 
 
 register(Scene("my_drop", "spheres dropped onto a floor until they rest (examples/my_scene.py)",

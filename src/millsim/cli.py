@@ -53,6 +53,13 @@ def cmd_scenes(args):
         print(f"{scene.name}: {scene.summary}")
         for p in scene.params:
             print("  " + p.describe())
+        series, outputs = (getattr(scene.build, key, ()) for key in ("series", "outputs"))
+        if series or outputs:
+            print("case file (besides the provenance):")
+        for s in series:
+            print(f"  {s.name}(time) [{s.units}]: {s.long_name}")
+        for o in outputs:
+            print("  " + o.describe())
         return 0
     load_all()
     for name in sorted(REGISTRY):

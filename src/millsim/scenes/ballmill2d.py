@@ -25,11 +25,12 @@ import numpy as np
 
 from ..engine import BYTES_PER_PARTICLE, Guards, PhysicsSpec, Simulation
 from ..models import Interaction, Material, MaterialTable, WeibullModel
-from ..models.breakage.weibull import WeibullSplit
+from ..models.breakage.weibull import Fracture, WeibullSplit
 from ..util.memory import RECORD_VALUE_BYTES, check_memory
 from ..util.stats import steady_rate
 from .base import (
     TIME_STEP_PARAMS,
+    DriveMark,
     Param,
     Scene,
     check_particle_memory,
@@ -37,7 +38,7 @@ from .base import (
     register,
     step_policy,
 )
-from .driver import Case, Series
+from .driver import Case, Output, Series
 from .force_chains import chain_statistics, find_chains
 
 G = 9.81
@@ -242,6 +243,14 @@ def build(values):
     return sim, n_c, omega
 
 
+def _fragmenting(values):
+    return values["fragmentation"]
+
+
+def _chains(values):
+    return not values["fragmentation"]
+
+
 class BallMillCase(Case):
     """One ball-mill run: records every ``record_interval``; after the transient, pressure and
     fracture maps, size distributions (with fragmentation) or force chains (without)."""
@@ -252,6 +261,56 @@ class BallMillCase(Case):
               Series("kinetic_energy", "J", "kinetic energy of the grains"),
               Series("drive_torque", "N m", "torque the drive supplies (interval mean)"),
               Series("drive_power", "W", "power the drive supplies (interval mean)"))
+    outputs = (
+        # CF axes: x is horizontal (X), y is vertical (Z, gravity along -y)
+        Output("gx", ("gx",), "m", "map cell centre x", coord=True, cf={"axis": "X"}),
+        Output("gy", ("gy",), "m", "map cell centre y", coord=True,
+               cf={"axis": "Z", "positive": "up"}),
+        Output("pressure", ("gy", "gx"), "Pa",
+               "time-averaged grain pressure (normal forces / perimeter area)",
+               "mean over the records after the transient of the grains in the cell (NaN: none)"),
+        Output("mean_drive_power", (), "W", "steady-state mean drive power",
+               "mean of the recorded drive power after the transient"),
+        Output("n_c", (), "s-1", "critical speed (rev/s)"),
+        Output("n_over_nc", (), "1", "rotation speed / critical speed"),
+        # with fragmentation: the fractures, their rate and map, the size distribution
+        Output("event", ("event",), "1", "fracture event index", coord=True, when=_fragmenting),
+        # event_<field> for every field of a Fracture
+        Output("event_time", ("event",), "s", "time of fracture", when=_fragmenting),
+        Output("event_x", ("event",), "m", "x of the breaking grain", when=_fragmenting),
+        Output("event_y", ("event",), "m", "y of the breaking grain", when=_fragmenting),
+        Output("event_radius", ("event",), "m", "radius of the breaking grain", when=_fragmenting),
+        Output("event_force", ("event",), "N", "peak normal force of the breaking contact",
+               when=_fragmenting),
+        Output("comminution_rate", (), "s-1", "steady-state fracture events per second",
+               "fracture events after the transient over rate_blocks blocks", when=_fragmenting),
+        Output("comminution_rate_ci", (), "s-1", "95% half-width (block averages)",
+               "Student t over the block rates", when=_fragmenting),
+        Output("fracture_frequency", ("gy", "gx"), "s-1 m-2", "fracture events per time and area",
+               "events after the transient per cell, over the steady window and the cell area",
+               when=_fragmenting),
+        Output("snapshot", ("snapshot",), "s", "size snapshot time", coord=True,
+               cf={"standard_name": "time", "axis": "T"}, when=_fragmenting),
+        Output("size_class", ("size_class",), "m", "grain radius class centre", coord=True,
+               cf={"bounds": "size_class_bounds"}, when=_fragmenting),
+        Output("size_class_bounds", ("size_class", "bound"), "m", "grain radius class bounds",
+               coord=True, when=_fragmenting),
+        Output("size_distribution", ("snapshot", "size_class"), "kg",
+               "grain mass per radius class", when=_fragmenting),
+        Output("mass_balance_error", (), "kg", "grains + pending dust - initial grain mass",
+               when=_fragmenting),
+        # without: the force chains (scenes.force_chains)
+        Output("chain_length", ("chain_length",), "1", "grains in the chain", coord=True,
+               when=_chains),
+        Output("chain_position", ("chain_position",), "1", "relative position along the chain",
+               coord=True, when=_chains),
+        Output("chain_count", ("chain_length",), "1", "chains per length (all records)",
+               when=_chains),
+        Output("chain_max_pressure", ("chain_length",), "Pa",
+               "mean of the largest grain pressure in a chain", when=_chains),
+        Output("chain_force_profile", ("chain_position",), "N",
+               "mean normal-force sum vs position in chain", when=_chains),
+    )
 
     def __init__(self, values):
         super().__init__()
@@ -274,7 +333,7 @@ class BallMillCase(Case):
         self.pressure_sum = np.zeros((cells, cells))
         self.pressure_n = np.zeros((cells, cells))
         self.snapshots, self.size_dist, self.chains = [], [], []
-        self.last = (sim.angular_impulse(body=0)[2], sim.work(body=0), sim.time)
+        self.last = DriveMark(sim.angular_impulse(body=0)[2], sim.work(body=0), sim.time)
         self.count = 0
 
     def mass(self, r):
@@ -308,15 +367,15 @@ class BallMillCase(Case):
         p = s.particles
         free = p.body < 0
         impulse, work = s.angular_impulse(body=0)[2], s.work(body=0)
-        span = s.time - self.last[2]
+        span = s.time - self.last.time
         # The charge's torque on the drum about z; the drive supplies the opposite.
         self.record(s.time, grains=int(free.sum()),
                     fracture_events=len(self.split.events) if self.split else 0,
                     dust_mass=self.split.dust_total if self.split else 0.0,
                     kinetic_energy=s.kinetic_energy(),
-                    drive_torque=-(impulse - self.last[0]) / span,
-                    drive_power=(work - self.last[1]) / span)
-        self.last = (impulse, work, s.time)
+                    drive_torque=-(impulse - self.last.angular_impulse) / span,
+                    drive_power=(work - self.last.work) / span)
+        self.last = DriveMark(impulse, work, s.time)
         self.count += 1
         if s.time < v["transient"]:
             return
@@ -340,77 +399,47 @@ class BallMillCase(Case):
         v = self.v
         edges = self.grid_edges
         centres = 0.5 * (edges[1:] + edges[:-1])
-        # CF axes: x is horizontal (X), y is vertical (Z, gravity along -y)
-        coords = {"gx": ("gx", centres, {"units": "m", "long_name": "map cell centre x",
-                                         "axis": "X"}),
-                  "gy": ("gy", centres, {"units": "m", "long_name": "map cell centre y",
-                                         "axis": "Z", "positive": "up"})}
-        data = {}
+        data = {"gx": centres, "gy": centres}
         with np.errstate(invalid="ignore"):
-            data["pressure"] = (("gy", "gx"), np.where(self.pressure_n > 0, self.pressure_sum
-                                                       / np.maximum(self.pressure_n, 1), np.nan),
-                                {"units": "Pa", "long_name": "time-averaged grain pressure (normal "
-                                                             "forces / perimeter area)"})
+            data["pressure"] = np.where(self.pressure_n > 0, self.pressure_sum
+                                        / np.maximum(self.pressure_n, 1), np.nan)
         power = self.recorded("drive_power")
         steady = self.recorded_times() >= v["transient"]
-        data["mean_drive_power"] = ((), float(np.mean(power[steady])) if steady.any() else np.nan,
-                                    {"units": "W", "long_name": "steady-state mean drive power"})
-        data["n_c"] = ((), self.n_c, {"units": "s-1", "long_name": "critical speed (rev/s)"})
-        data["n_over_nc"] = ((), v["n_over_nc"], {"units": "1", "long_name": "rotation speed / critical speed"})
+        data["mean_drive_power"] = float(np.mean(power[steady])) if steady.any() else np.nan
+        data["n_c"], data["n_over_nc"] = self.n_c, v["n_over_nc"]
         if self.split:
-            self._fracture_outputs(data, coords)
+            data.update(self._fracture_outputs())
         else:
             stats = chain_statistics(self.chains)
-            coords["chain_length"] = ("chain_length", stats["lengths"],
-                                      {"units": "1", "long_name": "grains in the chain"})
-            coords["chain_position"] = ("chain_position", stats["position"],
-                                        {"units": "1", "long_name": "relative position along the chain"})
-            data["chain_count"] = ("chain_length", stats["count"],
-                                   {"units": "1", "long_name": "chains per length (all records)"})
-            data["chain_max_pressure"] = (
-                "chain_length", stats["max_pressure"],
-                {"units": "Pa", "long_name": "mean of the largest grain pressure in a chain"})
-            data["chain_force_profile"] = (
-                "chain_position", stats["load_profile"],
-                {"units": "N", "long_name": "mean normal-force sum vs position in chain"})
-        extra = {"critical_speed_rev_s": self.n_c, "rotation_rate_rad_s": self.omega}
-        return data, coords, extra
+            data.update(chain_length=stats["lengths"], chain_position=stats["position"],
+                        chain_count=stats["count"], chain_max_pressure=stats["max_pressure"],
+                        chain_force_profile=stats["load_profile"])
+        return data
 
-    def _fracture_outputs(self, data, coords):
+    def provenance(self):
+        return {"critical_speed_rev_s": self.n_c, "rotation_rate_rad_s": self.omega}
+
+    def _fracture_outputs(self):
         v, split = self.v, self.split
         edges = self.grid_edges
-        ev = np.array(split.events).reshape(-1, 5)
-        coords["event"] = ("event", np.arange(len(ev)), {"units": "1", "long_name": "fracture event index"})
-        for col, (name, unit, long) in enumerate([("event_time", "s", "time of fracture"),
-                                                  ("event_x", "m", "x of the breaking grain"),
-                                                  ("event_y", "m", "y of the breaking grain"),
-                                                  ("event_radius", "m", "radius of the breaking grain"),
-                                                  ("event_force", "N", "peak normal force of the breaking contact")]):
-            data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
+        data = {f"event_{name}": np.array([getattr(e, name) for e in split.events], dtype=float)
+                for name in Fracture._fields}
+        t, x, y = data["event_time"], data["event_x"], data["event_y"]
+        data["event"] = np.arange(len(t))
         window = v["duration"] - v["transient"]
-        rate, half, _ = steady_rate(ev[:, 0], v["transient"], v["duration"], v["rate_blocks"])
-        data["comminution_rate"] = ((), rate, {"units": "s-1", "long_name": "steady-state fracture events per second"})
-        data["comminution_rate_ci"] = ((), half, {"units": "s-1", "long_name": "95% half-width (block averages)"})
-        after = ev[:, 0] >= v["transient"]
-        hist = np.histogram2d(ev[after, 1], ev[after, 2], bins=[edges, edges])[0].T
+        rate, half, _ = steady_rate(t, v["transient"], v["duration"], v["rate_blocks"])
+        data["comminution_rate"], data["comminution_rate_ci"] = rate, half
+        after = t >= v["transient"]
+        hist = np.histogram2d(x[after], y[after], bins=[edges, edges])[0].T
         cell_area = (edges[1] - edges[0]) ** 2
-        data["fracture_frequency"] = (("gy", "gx"), hist / (window * cell_area),
-                                      {"units": "s-1 m-2", "long_name": "fracture events per time and area"})
-        coords["snapshot"] = ("snapshot", np.array(self.snapshots),
-                              {"units": "s", "long_name": "size snapshot time",
-                               "standard_name": "time", "axis": "T"})
+        data["fracture_frequency"] = hist / (window * cell_area)
+        data["snapshot"] = np.array(self.snapshots)
         edges = self.size_edges
-        coords["size_class"] = ("size_class", 0.5 * (edges[1:] + edges[:-1]),
-                                {"units": "m", "long_name": "grain radius class centre",
-                                 "bounds": "size_class_bounds"})
-        coords["size_class_bounds"] = (("size_class", "bound"),
-                                       np.column_stack([edges[:-1], edges[1:]]),
-                                       {"units": "m", "long_name": "grain radius class bounds"})
-        data["size_distribution"] = (("snapshot", "size_class"),
-                                     np.array(self.size_dist).reshape(-1, v["size_classes"]),
-                                     {"units": "kg", "long_name": "grain mass per radius class"})
-        data["mass_balance_error"] = ((), self.grain_mass() + split.dust_pending - self.initial_mass,
-                                      {"units": "kg", "long_name": "grains + pending dust - initial grain mass"})
+        data["size_class"] = 0.5 * (edges[1:] + edges[:-1])
+        data["size_class_bounds"] = np.column_stack([edges[:-1], edges[1:]])
+        data["size_distribution"] = np.array(self.size_dist).reshape(-1, v["size_classes"])
+        data["mass_balance_error"] = self.grain_mass() + split.dust_pending - self.initial_mass
+        return data
 
 
 register(Scene("ballmill2d", "2D ball mill with lifters: comminution rate, maps, force chains "

@@ -14,7 +14,7 @@ import re
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 from ..engine import BYTES_PER_PARTICLE, StepPolicy
 from ..util.memory import check_memory
@@ -175,6 +175,15 @@ def check_particle_memory(key, count, others=0):
     after the placement, otherwise."""
     check_memory(key, count, lambda n: (n + others) * BYTES_PER_PARTICLE, "particles",
                  f"{BYTES_PER_PARTICLE} B each")
+
+
+class DriveMark(NamedTuple):
+    """What a drive had supplied up to ``time``: a record's interval-mean torque and power are the
+    differences from the last mark over the time between."""
+
+    angular_impulse: float  # about the drive's axis [N m s]
+    work: float  # [J]
+    time: float  # [s]
 
 
 def record_steps(values, dt, key="record_interval"):

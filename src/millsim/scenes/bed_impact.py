@@ -35,6 +35,7 @@ count, an energy book and every breakage event.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -44,7 +45,7 @@ from ..models.breakage import tavares
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement
 from ..models.breakage.replacement import product_passing as replacement_passing
 from .base import TIME_STEP_PARAMS, Param, Scene, record_steps, register, step_policy
-from .driver import Case, Series
+from .driver import Case, Output, Series
 
 G = 9.81
 BROKEN_SIEVE = 4.75e-3  # m: "mass of material passing the initial narrow size" (4.75-6.3 mm)
@@ -191,7 +192,7 @@ class _Tracker:
 
     def __init__(self, replace, mat):
         self.replace, self.mat = replace, mat
-        self.event_rows = []  # per event: time, x, y, z, radial, generation, origin, ...
+        self.event_rows = []  # a BedEvent per breakage event
 
     def __call__(self, sim):
         before = len(self.replace.events)
@@ -201,28 +202,29 @@ class _Tracker:
         for ev, gen, origin in zip(self.replace.events[before:], parent["generation"],
                                    parent["origin"]):
             radial = float(np.hypot(*(ev.position[:2] - ball_xy)))
-            self.event_rows.append((ev.time, *ev.position, radial, gen, origin,
-                                    ev.parent_diameter, ev.specific_energy, ev.fracture_energy,
-                                    ev.t10, ev.progeny, ev.fines_mass,
-                                    sphere_mass(self.mat.density, ev.parent_diameter)))
+            self.event_rows.append(BedEvent(ev.time, *ev.position, radial, gen, origin,
+                                            ev.parent_diameter, ev.specific_energy,
+                                            ev.fracture_energy, ev.t10, ev.progeny, ev.fines_mass,
+                                            sphere_mass(self.mat.density, ev.parent_diameter)))
 
 
-EVENT_FIELDS = (
-    ("event_time", "s", "time of the breakage event"),
-    ("event_x", "m", "x of the broken particle"),
-    ("event_y", "m", "y of the broken particle"),
-    ("event_z", "m", "z of the broken particle"),
-    ("event_radial", "m", "horizontal distance of the broken particle from the ball's axis"),
-    ("event_generation", "1", "0 = an original bed particle, 1 = its progeny, ..."),
-    ("event_origin", "1", "index of the original bed particle it comes from"),
-    ("event_parent_diameter", "m", "diameter of the broken particle"),
-    ("event_specific_energy", "J kg-1", "absorbed specific energy of the breaking event"),
-    ("event_fracture_energy", "J kg-1", "(damaged) fracture energy it reached"),
-    ("event_t10", "%", "t10' of the event (family grid value)"),
-    ("event_progeny", "1", "progeny spheres (dummy spheres included)"),
-    ("event_fines_mass", "kg", "unresolved fines of the event (dummy_as = fines)"),
-    ("event_parent_mass", "kg", "mass of the broken particle"),
-)
+class BedEvent(NamedTuple):
+    """One breakage event of the bed (written as the event_<field> variables of the case file)."""
+
+    time: float  # [s]
+    x: float  # centre of the broken particle [m]
+    y: float
+    z: float
+    radial: float  # horizontal distance of the broken particle from the ball's axis [m]
+    generation: int  # 0: an original bed particle, 1: its progeny, ...
+    origin: int  # index of the original bed particle it comes from
+    parent_diameter: float  # [m]
+    specific_energy: float  # absorbed, of the breaking event [J kg-1]
+    fracture_energy: float  # (damaged) fracture energy it reached [J kg-1]
+    t10: float  # t10' of the event [%]
+    progeny: int  # progeny spheres, dummy spheres included
+    fines_mass: float  # unresolved fines of the event [kg]
+    parent_mass: float  # [kg]
 
 
 def product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat, sieves=SIEVES):
@@ -235,10 +237,10 @@ def product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat, 
         # x relative to the parent: the dummy is x_min of its parent
         parent = d / X_MIN
         passing += m * tavares.fines_passing(t10, sieves / parent, mat)
-    for row in events:
-        fines, t10, parent = row[12], row[10], row[7]
-        if fines > 0:
-            passing += fines * tavares.fines_passing(t10, sieves / parent, mat)
+    for ev in events:
+        if ev.fines_mass > 0:
+            passing += ev.fines_mass * tavares.fines_passing(ev.t10, sieves / ev.parent_diameter,
+                                                             mat)
     return passing
 
 
@@ -256,6 +258,55 @@ class BedImpactCase(Case):
               Series("ball_energy", "J", "kinetic + potential (z = 0) energy of the ball"),
               Series("broken_events", "1", "cumulative breakage events"),
               Series("max_fragment_speed", "m s-1", "largest speed of a bed particle or fragment"))
+    outputs = (
+        Output("sieve", ("sieve",), "m", "sieve aperture", coord=True),
+        Output("event", ("event",), "1", "breakage event index", coord=True),
+        # event_<field> for every field of a BedEvent
+        Output("event_time", ("event",), "s", "time of the breakage event"),
+        Output("event_x", ("event",), "m", "x of the broken particle"),
+        Output("event_y", ("event",), "m", "y of the broken particle"),
+        Output("event_z", ("event",), "m", "z of the broken particle"),
+        Output("event_radial", ("event",), "m",
+               "horizontal distance of the broken particle from the ball's axis"),
+        Output("event_generation", ("event",), "1", "0 = an original bed particle, 1 = its progeny, ..."),
+        Output("event_origin", ("event",), "1", "index of the original bed particle it comes from"),
+        Output("event_parent_diameter", ("event",), "m", "diameter of the broken particle"),
+        Output("event_specific_energy", ("event",), "J kg-1",
+               "absorbed specific energy of the breaking event"),
+        Output("event_fracture_energy", ("event",), "J kg-1", "(damaged) fracture energy it reached"),
+        Output("event_t10", ("event",), "%", "t10' of the event (family grid value)"),
+        Output("event_progeny", ("event",), "1", "progeny spheres (dummy spheres included)"),
+        Output("event_fines_mass", ("event",), "kg", "unresolved fines of the event (dummy_as = fines)"),
+        Output("event_parent_mass", ("event",), "kg", "mass of the broken particle"),
+        Output("bed_mass", (), "kg", "initial bed mass (particles x sphere mass)"),
+        Output("n_bed_particles", (), "1", "particles in the bed"),
+        Output("broken_mass", (), "kg", "mass passing 4.75 mm after impact (broken mass)",
+               "resolved spheres by size, dummies and fines by eq 11, unbreakable records by eq 13"),
+        Output("broken_fraction", (), "1", "broken mass / bed mass"),
+        Output("capture_radius", (), "m",
+               "largest distance from the ball's axis of an original bed particle that broke"),
+        Output("touched_radius", (), "m", "largest distance from the ball's axis of a particle the "
+               "ball touched (recorded cadence)"),
+        Output("broken_particles", (), "1", "original bed particles that broke"),
+        Output("breakage_events", (), "1", "breakage events (all generations)"),
+        Output("unbreakable_records", (), "1", "resolved-unbreakable particles that reached their "
+               "fracture energy (eq 13 applied)"),
+        Output("unbreakable_recorded_mass", (), "kg",
+               "their mass, spread by eq 13 in the product distribution"),
+        Output("fines_mass", (), "kg", "unresolved fines (dummy_as = fines)"),
+        Output("dummy_mass", (), "kg", "mass of the dummy spheres (fines below x_min of their parent)"),
+        Output("mass_balance_error", (), "kg", "resolved + fines - initial bed mass"),
+        Output("impact_speed", (), "m s-1", "ball speed at first contact"),
+        Output("ball_energy_initial", (), "J", "ball kinetic + potential energy at the start"),
+        Output("ball_energy_final", (), "J", "ball kinetic + potential energy at the end"),
+        Output("breakage_energy", (), "J", "absorbed energy of the breaking events (sum of Ek')",
+               "specific energy x parent mass, summed over the events"),
+        Output("settle_kinetic_energy", (), "J", "bed kinetic energy left after settling"),
+        Output("contact_time", (), "s", "time from first contact to the end of the run"),
+        Output("first_contact_time", (), "s", "time of the first ball-bed contact (holder removed)"),
+        Output("passing", ("sieve",), "kg", "bed mass passing the sieve"),
+        Output("passing_fraction", ("sieve",), "1", "cumulative fraction passing (incl. fines)"),
+    )
 
     def __init__(self, values):
         super().__init__()
@@ -413,7 +464,7 @@ class BedImpactCase(Case):
                 f"{self.sim.n_particles - 1} particles, {len(self.replace.events)} breakage events")
 
     def finish(self):
-        sim, values, mat, replace, tracker = self.sim, self.values, self.mat, self.replace, self.tracker
+        sim, mat, replace, tracker = self.sim, self.mat, self.replace, self.tracker
         bed_mass0, n_bed, settle_ke, t_contact = self.bed_mass0, self.n_bed, self.settle_ke, self.t_contact
         v0, e_ball0 = self.v0, self.e_ball0
         touched_radial = [self.touched_radial]
@@ -431,58 +482,46 @@ class BedImpactCase(Case):
         passing_total = product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat,
                                         np.array([BROKEN_SIEVE]))[0]
         broken_mass = float(passing_total)
-        gen0 = [row for row in events if row[5] == 0]
-        capture = max((row[4] for row in gen0), default=0.0)
-        broken_originals = len({int(row[6]) for row in events})
-        absorbed = float(sum(row[8] * row[13] for row in events))
-        ev = np.array(events, dtype=float).reshape(-1, len(EVENT_FIELDS))
-
-        coords = {
-            "sieve": ("sieve", SIEVES, {"units": "m", "long_name": "sieve aperture"}),
-            "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event index"}),
-        }
-        data = {}
-        for col, (key, unit, long) in enumerate(EVENT_FIELDS):
-            data[key] = ("event", ev[:, col], {"units": unit, "long_name": long})
+        gen0 = [ev for ev in events if ev.generation == 0]
+        capture = max((ev.radial for ev in gen0), default=0.0)
+        broken_originals = len({int(ev.origin) for ev in events})
+        absorbed = float(sum(ev.specific_energy * ev.parent_mass for ev in events))
+        data = {"sieve": SIEVES, "event": np.arange(len(events))}
+        data.update({f"event_{name}": np.array([getattr(ev, name) for ev in events], dtype=float)
+                     for name in BedEvent._fields})
         scalars = {
-            "bed_mass": (bed_mass0, "kg", "initial bed mass (particles x sphere mass)"),
-            "n_bed_particles": (n_bed, "1", "particles in the bed"),
-            "broken_mass": (broken_mass, "kg", "mass passing 4.75 mm after impact (broken mass)"),
-            "broken_fraction": (broken_mass / bed_mass0, "1", "broken mass / bed mass"),
-            "capture_radius": (capture, "m",
-                               "largest distance from the ball's axis of an original bed particle that broke"),
-            "touched_radius": (touched_radial[0], "m",
-                               "largest distance from the ball's axis of a particle the ball "
-                               "touched (recorded cadence)"),
-            "broken_particles": (broken_originals, "1", "original bed particles that broke"),
-            "breakage_events": (len(events), "1", "breakage events (all generations)"),
-            "unbreakable_records": (len(replace.records), "1",
-                                    "resolved-unbreakable particles that reached their fracture "
-                                    "energy (eq 13 applied)"),
-            "unbreakable_recorded_mass": (float(masses[np.isfinite(t10_recorded)].sum()), "kg",
-                                          "their mass, spread by eq 13 in the product distribution"),
-            "fines_mass": (fines, "kg", "unresolved fines (dummy_as = fines)"),
-            "dummy_mass": (float(masses[dummy].sum()), "kg",
-                           "mass of the dummy spheres (fines below x_min of their parent)"),
-            "mass_balance_error": (total - bed_mass0, "kg", "resolved + fines - initial bed mass"),
-            "impact_speed": (v0, "m s-1", "ball speed at first contact"),
-            "ball_energy_initial": (e_ball0, "J", "ball kinetic + potential energy at the start"),
-            "ball_energy_final": (self.recorded("ball_energy")[-1], "J", "ball kinetic + potential energy at the end"),
-            "breakage_energy": (absorbed, "J", "absorbed energy of the breaking events (sum of Ek')"),
-            "settle_kinetic_energy": (settle_ke, "J", "bed kinetic energy left after settling"),
-            "contact_time": (sim.time - t_contact, "s", "time from first contact to the end of the run"),
-            "first_contact_time": (t_contact, "s", "time of the first ball-bed contact (holder removed)"),
+            "bed_mass": bed_mass0,
+            "n_bed_particles": n_bed,
+            "broken_mass": broken_mass,
+            "broken_fraction": broken_mass / bed_mass0,
+            "capture_radius": capture,
+            "touched_radius": touched_radial[0],
+            "broken_particles": broken_originals,
+            "breakage_events": len(events),
+            "unbreakable_records": len(replace.records),
+            "unbreakable_recorded_mass": float(masses[np.isfinite(t10_recorded)].sum()),
+            "fines_mass": fines,
+            "dummy_mass": float(masses[dummy].sum()),
+            "mass_balance_error": total - bed_mass0,
+            "impact_speed": v0,
+            "ball_energy_initial": e_ball0,
+            "ball_energy_final": self.recorded("ball_energy")[-1],
+            "breakage_energy": absorbed,
+            "settle_kinetic_energy": settle_ke,
+            "contact_time": sim.time - t_contact,
+            "first_contact_time": t_contact,
         }
-        for key, (val, unit, long) in scalars.items():
-            data[key] = ((), float(val), {"units": unit, "long_name": long})
-        data["passing"] = ("sieve", passing, {"units": "kg", "long_name": "bed mass passing the sieve"})
-        data["passing_fraction"] = ("sieve", passing / bed_mass0,
-                                    {"units": "1", "long_name": "cumulative fraction passing (incl. fines)"})
-        extra = {"settle_dt": self.settle.dt, "settle_steps": self.settle_steps,
-                 "impact_steps": sim.step, "d_min": self.d_min,
-                 "ball_density": ball_density(values["ball_mass"], values["ball_diameter"]),
-                 "holder_radius": float(self.walls[1]["radius"]) if self.holder else 0.0}
-        return data, coords, extra
+        data.update({key: float(value) for key, value in scalars.items()})
+        data["passing"] = passing
+        data["passing_fraction"] = passing / bed_mass0
+        return data
+
+    def provenance(self):
+        values = self.values
+        return {"settle_dt": self.settle.dt, "settle_steps": self.settle_steps,
+                "impact_steps": self.sim.step, "d_min": self.d_min,
+                "ball_density": ball_density(values["ball_mass"], values["ball_diameter"]),
+                "holder_radius": float(self.walls[1]["radius"]) if self.holder else 0.0}
 
 
 register(Scene("bed_impact", "steel ball dropped on a particle bed, Tavares breakage "

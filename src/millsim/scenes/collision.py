@@ -28,7 +28,7 @@ from .base import (
     register,
     step_policy,
 )
-from .driver import Case, Series
+from .driver import Case, Output, Series
 
 HERTZ_TIME_FACTOR = 2.9433  # t_c = 2 (xi_max / v) int_0^1 dx / sqrt(1 - x^(5/2))
 
@@ -124,6 +124,16 @@ class CollisionCase(Case):
     series = (Series("overlap", "m", "normal overlap"),
               Series("normal_force", "N", "normal contact force on particle 0"),
               Series("normal_velocity", "m s-1", "relative normal velocity (separating > 0)"))
+    outputs = (
+        Output("restitution", (), "1", "measured coefficient of restitution",
+               "last normal velocity / first, over cos(angle) for an oblique impact"),
+        Output("contact_time", (), "s", "measured contact duration",
+               "from the zero crossing of the overlap to zero overlap (unclipped) or zero normal "
+               "force (clipped), both interpolated between steps"),
+        Output("restitution_analytic", (), "1", "analytic coefficient of restitution"),
+        Output("contact_time_analytic", (), "s", "analytic contact duration (NaN: none)"),
+        Output("max_overlap", (), "m", "largest overlap"),
+    )
 
     def __init__(self, values):
         super().__init__()
@@ -202,17 +212,9 @@ class CollisionCase(Case):
             t_end = t[k1 - 1] + (t[k1] - t[k1 - 1]) * force[k1 - 1] / (force[k1 - 1] - force[k1])
         angle = self.values["angle"]
         e_meas = vn[-1] / v_in / math.cos(math.radians(angle)) if angle else vn[-1] / v_in
-        data = {
-            "restitution": ((), e_meas, {"units": "1", "long_name": "measured coefficient of restitution"}),
-            "contact_time": ((), t_end - t_start, {"units": "s", "long_name": "measured contact duration"}),
-            "restitution_analytic": (
-                (), self.e_ref, {"units": "1", "long_name": "analytic coefficient of restitution"}),
-            "contact_time_analytic": (
-                (), self.t_ref,
-                {"units": "s", "long_name": "analytic contact duration (NaN: none)"}),
-            "max_overlap": ((), float(overlap.max()), {"units": "m", "long_name": "largest overlap"}),
-        }
-        return data, {}, {}
+        return {"restitution": e_meas, "contact_time": t_end - t_start,
+                "restitution_analytic": self.e_ref, "contact_time_analytic": self.t_ref,
+                "max_overlap": float(overlap.max())}
 
 
 register(Scene("collision", "one binary impact (pair or wall) for analytic checks", PARAMS,

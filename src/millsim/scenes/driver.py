@@ -1,15 +1,18 @@
 """The one scene driver: chunk loop, progress, recording, stop test, the case file.
 
 A scene is a declaration (:class:`~millsim.scenes.base.Scene`): its parameters, and ``build``,
-which returns a :class:`Case`, one run's state. The Case says what it records (:class:`Series`,
-with units and long names), how many steps to run before it looks again (``chunk``), what to do
-between chunks (``after_chunk``: record, change stage), when it is done (``done``), how far it is
-(``progress``) and its summaries (``finish``). :func:`drive` does the rest, the same for every
-scene: it runs the compiled chunks with the requested threads, hands breakage decisions to the
-case's handler, prints progress on stderr with an ETA, takes the particle snapshots, assembles the
-dataset and writes the case file (atomically, with the provenance). A long case saves itself
-between chunks to a checkpoint beside its output (:class:`Checkpoint`), from which the same
-command resumes after an interruption with the same result.
+which returns a :class:`Case`, one run's state. The Case declares what it records (``series``, a
+table of :class:`Series`) and its summaries (``outputs``, a table of :class:`Output`: name, dims,
+units, long name, how computed), once each; it says how many steps to run before it looks again
+(``chunk``), what to do between chunks (``after_chunk``: record, change stage), when it is done
+(``done``), how far it is (``progress``) and the values of its summaries (``finish``).
+:func:`drive` does the rest, the same for every scene: it runs the compiled chunks with the
+requested threads, hands breakage decisions to the case's handler, prints progress on stderr with
+an ETA, takes the particle snapshots, assembles the dataset from the tables and the values (every
+declared output returned, nothing undeclared) and writes the case file (atomically, with the
+provenance). A long case saves itself between chunks to a checkpoint beside its output
+(:class:`Checkpoint`), from which the same command resumes after an interruption with the same
+result.
 
 The model is MercuryDPM's ``continueSolve`` / ``actionsAfterTimeStep`` and HOOMD-blue's loggers on
 triggers, with the chunk (tens to thousands of steps, all compiled) as the time step.
@@ -18,7 +21,8 @@ triggers, with the chunk (tens to thousands of steps, all compiled) as the time 
 import math
 import sys
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -36,11 +40,38 @@ class Series:
     long_name: str
 
 
+@dataclass(frozen=True)
+class Output:
+    """A summary variable (or coordinate) of the case file, declared once in the scene's table
+    (``Case.outputs``): its ``units`` and ``long_name`` attributes come from here, ``finish``
+    returns only its value."""
+
+    name: str
+    dims: tuple  # dimension names; () for a scalar
+    units: str
+    long_name: str
+    how: str = ""  # how it is computed, where the long name does not say
+    when: Callable | None = None  # when(parameter values): written only where this holds
+    coord: bool = False  # a coordinate of the dataset
+    cf: dict = field(default_factory=dict)  # further CF attributes: axis, positive, bounds, ...
+
+    def attrs(self):
+        return {"units": self.units, "long_name": self.long_name, **self.cf}
+
+    def describe(self):
+        how = f"; {self.how}" if self.how else ""
+        when = " (with some parameters only)" if self.when else ""
+        dims = f"({', '.join(self.dims)})" if self.dims else ""
+        return f"{self.name}{dims} [{self.units}]: {self.long_name}{how}{when}"
+
+
 class Case:
-    """One run of a scene. Subclasses set ``sim`` (the Simulation the driver advances) and
-    ``series`` (the Series they record with :meth:`record`), and implement the hooks."""
+    """One run of a scene. Subclasses set ``sim`` (the Simulation the driver advances),
+    ``series`` (the Series they record with :meth:`record`) and ``outputs`` (the Outputs whose
+    values :meth:`finish` returns), and implement the hooks."""
 
     series = ()
+    outputs = ()
     time_long_name = "simulated time"
     attrs = {}  # global attributes of the case file besides the provenance
 
@@ -70,9 +101,13 @@ class Case:
         raise RuntimeError(f"{type(self).__name__}: breakage decided but the scene handles none")
 
     def finish(self):
-        """Summaries: ({name: (dims, values, units, long_name)}, {coord: (dims, values, units,
-        long_name)}, provenance extras)."""
-        return {}, {}, {}
+        """The values of the summaries: {name: value or array} for every declared output that
+        applies (``outputs``)."""
+        return {}
+
+    def provenance(self):
+        """What the case adds to the provenance attributes of its case file."""
+        return {}
 
     # ---- recording -----------------------------------------------------------------------------
     def record(self, t, **values):
@@ -294,7 +329,7 @@ def drive(scene, values, ctx, out=None):
         if checkpoint and checkpoint.due() and not case.done():
             checkpoint.save({"case": case, "steps_total": steps_total, "resumed_at_steps": resumed,
                              "wall_time_s": time.perf_counter() - t_wall})
-    summaries, coords, extra = case.finish()
+    summaries, coords = summary_variables(scene.name, case.outputs, values, case.finish())
     data, series_coords = case.series_dataset()
     data.update(summaries)
     ds = xr.Dataset(data, coords={**series_coords, **coords},
@@ -306,7 +341,7 @@ def drive(scene, values, ctx, out=None):
                   "dt": sim.dt, "steps": steps_total, "wall_time_s": time.perf_counter() - t_wall,
                   "dt_limit": sim.dt_report.limit, "dt_binding": sim.dt_report.binding.kind,
                   "compute_seconds": sim.wall_seconds, "threads": ctx.threads or 0,
-                  "resumed_at_steps": " ".join(map(str, resumed)), **extra}
+                  "resumed_at_steps": " ".join(map(str, resumed)), **case.provenance()}
     if out is not None:
         from ..io import write_case
 
@@ -314,3 +349,22 @@ def drive(scene, values, ctx, out=None):
         if checkpoint:
             checkpoint.remove()
     return ds, provenance
+
+
+def summary_variables(scene, outputs, values, returned):
+    """({name: (dims, value, attrs)} of the data variables, the same of the coordinates) from the
+    declared ``outputs`` of ``scene`` and the values ``returned`` by its ``finish``: every output
+    that applies to the parameter ``values`` returned, nothing else."""
+    wanted = [o for o in outputs if o.when is None or o.when(values)]
+    names = {o.name for o in wanted}
+    for name in returned:
+        if name not in names:
+            why = "does not apply to these parameters" if any(
+                o.name == name for o in outputs) else "is not declared in its outputs"
+            raise ValueError(f"scene {scene}: finish returned {name!r}, which {why}")
+    for o in wanted:
+        if o.name not in returned:
+            raise ValueError(f"scene {scene}: finish did not return the declared output {o.name!r}")
+    data = {o.name: (o.dims, returned[o.name], o.attrs()) for o in wanted if not o.coord}
+    coords = {o.name: (o.dims, returned[o.name], o.attrs()) for o in wanted if o.coord}
+    return data, coords

@@ -17,7 +17,7 @@ from ..engine.mesh_io import first_hits, read_mesh
 from ..engine.spec import FORCE_SUMS
 from ..models import Interaction, Material, MaterialTable
 from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, check_particle_memory, register
-from .driver import Case, Series
+from .driver import Case, Output, Series
 
 PARAMS = (
     Param("n", 10000, "number of spheres", "1", 1),
@@ -189,6 +189,10 @@ def build(values):
                       skin=values["skin"], step=StepPolicy(dt=values["settle_dt"]))
 
 
+def _drum(values):
+    return values["container"] == "drum"
+
+
 class PackingCase(Case):
     """Settle (box or drum), spin the drum up, then the timed stage at ``dt``: kinetic energy,
     contacts per particle and bed height every ``record_every`` steps; the drum's torque and
@@ -197,12 +201,22 @@ class PackingCase(Case):
     series = (Series("kinetic_energy", "J", "kinetic energy of the spheres"),
               Series("contacts_per_particle", "1", "particle-particle contacts per particle"),
               Series("bed_top", "m", "highest sphere centre"))
+    outputs = (
+        Output("particle_steps_per_second", (), "s-1", "throughput of the timed stage",
+               "particles x steps / timed_wall_time"),
+        Output("timed_wall_time", (), "s", "wall time of the timed stage (compiled loop only)"),
+        Output("shell_torque", (), "N m", "mean torque of the charge on the shell about its axis "
+               "(the drive supplies the opposite)", "angular impulse over the timed stage / its "
+               "duration", when=_drum),
+        Output("shell_power", (), "W", "mean power the shell puts into the charge",
+               "work over the timed stage / its duration", when=_drum),
+    )
 
     def __init__(self, values):
         super().__init__()
         self.v = values
         self.sim = build(values)
-        self.drum = values["container"] == "drum"
+        self.drum = _drum(values)
         # stages: (name, steps, record cadence)
         self.plan = [("timed", values["steps"], values["record_every"])]
         if self.drum and values["spinup_steps"]:
@@ -255,21 +269,15 @@ class PackingCase(Case):
         sim, v = self.sim, self.v
         timed_wall = sim.wall_seconds - self.timed_wall
         elapsed = sim.time - self.t_start
-        data = {
-            "particle_steps_per_second": ((), sim.n_particles * v["steps"] / timed_wall,
-                                          {"units": "s-1", "long_name": "throughput of the timed stage"}),
-            "timed_wall_time": (
-                (), timed_wall,
-                {"units": "s", "long_name": "wall time of the timed stage (compiled loop only)"}),
-        }
+        data = {"particle_steps_per_second": sim.n_particles * v["steps"] / timed_wall,
+                "timed_wall_time": timed_wall}
         if self.drum:
-            torque = (sim.angular_impulse(wall=0) - self.angular_start)[1] / elapsed
-            data["shell_torque"] = ((), torque, {
-                "units": "N m", "long_name": "mean torque of the charge on the shell about its axis "
-                                             "(the drive supplies the opposite)"})
-            data["shell_power"] = ((), (sim.work(wall=0) - self.work_start) / elapsed,
-                                  {"units": "W", "long_name": "mean power the shell puts into the charge"})
-        return data, {}, {"list_rebuilds": int(sim.counters[0]), "n_particles": sim.n_particles}
+            data["shell_torque"] = (sim.angular_impulse(wall=0) - self.angular_start)[1] / elapsed
+            data["shell_power"] = (sim.work(wall=0) - self.work_start) / elapsed
+        return data
+
+    def provenance(self):
+        return {"list_rebuilds": int(self.sim.counters[0]), "n_particles": self.sim.n_particles}
 
 
 register(Scene("packing", "spheres settled in a box or tumbling in a rotating drum (benchmark case)",

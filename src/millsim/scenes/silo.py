@@ -18,10 +18,10 @@ comparison is a check of magnitude and scaling, not of a fourth digit.
 import math
 
 import numpy as np
-from scipy import stats
 
 from ..engine import Guards, PhysicsSpec, Pour, Simulation
 from ..models import Interaction, Material, MaterialTable
+from ..util.stats import slope_interval
 from .base import (
     SOLID_PARAMS,
     TIME_STEP_PARAMS,
@@ -31,7 +31,7 @@ from .base import (
     register,
     step_policy,
 )
-from .driver import Case, Series
+from .driver import Case, Output, Series
 
 BEVERLOO_C, BEVERLOO_K = 0.58, 1.5
 G = 9.81
@@ -77,6 +77,23 @@ class SiloCase(Case):
     """Pour, settle, open the gate and discharge; the discharged mass every ``record_interval``."""
 
     series = (Series("discharged_mass", "kg", "mass discharged through the orifice"),)
+    outputs = (
+        Output("flow_rate", (), "kg s-1", "mass flow rate of the steady discharge (10-60 % of the "
+               "charge out)", "least-squares slope of the discharged mass over those records"),
+        Output("flow_rate_ci_lo", (), "kg s-1", "95% interval of the fitted slope, lower",
+               "Student t on the slope's standard error"),
+        Output("flow_rate_ci_hi", (), "kg s-1", "95% interval of the fitted slope, upper"),
+        Output("steady_records", (), "1", "records in the steady fit"),
+        Output("solid_fraction", (), "1", "solid fraction of the settled charge (core)",
+               "sphere volume in a cylinder 4 radii clear of the walls and the free surface"),
+        Output("bulk_density", (), "kg m-3", "bulk density of the settled charge"),
+        Output("fill_height", (), "m", "height of the settled charge"),
+        Output("beverloo_flow_rate", (), "kg s-1", f"Beverloo et al. (1961), C = {BEVERLOO_C}, "
+               f"k = {BEVERLOO_K}, at the measured bulk density"),
+        Output("flow_rate_over_beverloo", (), "1", "simulated / Beverloo flow rate"),
+        Output("discharged_fraction", (), "1", "fraction of the charge discharged in the run"),
+        Output("particles_left", (), "1", "spheres still in the silo at the end"),
+    )
 
     def __init__(self, values):
         super().__init__()
@@ -170,37 +187,20 @@ class SiloCase(Case):
         steady = (m >= 0.1 * total) & (m <= 0.6 * total)
         rate = lo = hi = math.nan
         if steady.sum() >= 3:
-            fit = stats.linregress(t[steady], m[steady])
-            half = stats.t.ppf(0.975, steady.sum() - 2) * fit.stderr
-            rate, lo, hi = fit.slope, fit.slope - half, fit.slope + half
+            rate, half = slope_interval(t[steady], m[steady])
+            lo, hi = rate - half, rate + half
         bulk = self.charge["solid_fraction"] * v["density"]
         predicted = beverloo(bulk, v["orifice_diameter"], 2.0 * v["radius"])
-        data = {
-            "flow_rate": ((), rate, {"units": "kg s-1", "long_name": "mass flow rate of the "
-                                     "steady discharge (10-60 % of the charge out)"}),
-            "flow_rate_ci_lo": ((), lo, {"units": "kg s-1", "long_name": "95% interval of the "
-                                         "fitted slope, lower"}),
-            "flow_rate_ci_hi": ((), hi, {"units": "kg s-1", "long_name": "95% interval of the "
-                                         "fitted slope, upper"}),
-            "steady_records": ((), int(steady.sum()), {"units": "1", "long_name":
-                                                       "records in the steady fit"}),
-            "solid_fraction": ((), self.charge["solid_fraction"], {
-                "units": "1", "long_name": "solid fraction of the settled charge (core)"}),
-            "bulk_density": ((), bulk, {"units": "kg m-3", "long_name": "bulk density of the "
-                                        "settled charge"}),
-            "fill_height": ((), self.charge["height"], {"units": "m", "long_name":
-                                                        "height of the settled charge"}),
-            "beverloo_flow_rate": ((), predicted, {
-                "units": "kg s-1", "long_name": f"Beverloo et al. (1961), C = {BEVERLOO_C}, "
-                                                f"k = {BEVERLOO_K}, at the measured bulk density"}),
-            "flow_rate_over_beverloo": ((), rate / predicted if predicted > 0 else math.nan, {
-                "units": "1", "long_name": "simulated / Beverloo flow rate"}),
-            "discharged_fraction": ((), self.discharged / total, {
-                "units": "1", "long_name": "fraction of the charge discharged in the run"}),
-            "particles_left": ((), self.sim.n_particles, {
-                "units": "1", "long_name": "spheres still in the silo at the end"}),
-        }
-        return data, {}, {"open_time_s": self.open_time, "n_particles_poured": v["n"]}
+        return {"flow_rate": rate, "flow_rate_ci_lo": lo, "flow_rate_ci_hi": hi,
+                "steady_records": int(steady.sum()),
+                "solid_fraction": self.charge["solid_fraction"], "bulk_density": bulk,
+                "fill_height": self.charge["height"], "beverloo_flow_rate": predicted,
+                "flow_rate_over_beverloo": rate / predicted if predicted > 0 else math.nan,
+                "discharged_fraction": self.discharged / total,
+                "particles_left": self.sim.n_particles}
+
+    def provenance(self):
+        return {"open_time_s": self.open_time, "n_particles_poured": self.v["n"]}
 
 
 register(Scene("silo", "flat-bottomed silo poured full and discharged through its orifice: mass "

@@ -53,6 +53,7 @@ fines included, with the model's.
 import dataclasses
 import math
 import zlib
+from typing import NamedTuple
 
 import numpy as np
 
@@ -65,7 +66,7 @@ from ..models.contact import hertz_contact_time
 from ..models.materials import effective_moduli
 from ..util.stats import binomial_interval, bootstrap_interval
 from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
-from .driver import Case
+from .driver import Case, Output
 
 SPEC = PhysicsSpec(dim=3, walls=True, gravity=False)
 MODES = ("single", "drop_weight", "repeated")
@@ -216,6 +217,21 @@ def build(values):
     return Setup(values, mat, steel, share, E, speed, m, sim, x[:n].copy(), t_c, seed)
 
 
+class ParticleEvent(NamedTuple):
+    """One breakage event (written as the event_<field> variables of the case file)."""
+
+    time: float  # [s]
+    particle: int  # the original particle it comes from
+    generation: int  # 0: original, 1: its progeny, ...
+    parent_diameter: float  # of the breaking particle [m]
+    specific_energy: float  # absorbed, at breakage [J kg-1]
+    fracture_energy: float  # exceeded [J kg-1]
+    t10: float  # t10' of the event (family grid value) [%]
+    family: int  # drawn (-1: no replacement)
+    progeny: int  # resolved progeny spheres
+    fines_mass: float  # unresolved fines (dummy class) [kg]
+
+
 class Books:
     """Breakage records of a run, per original particle and per event."""
 
@@ -228,7 +244,7 @@ class Books:
         self.absorbed = np.full(n, np.nan)  # absorbed specific energy of the breaking event
         self.e_break = np.full(n, np.nan)  # (damaged) fracture energy it exceeded
         self.t10_primary = np.full(n, np.nan)
-        self.events = []  # (time, parent id, generation, parent d, specific, E, t10, family, k, fines)
+        self.events = []  # a ParticleEvent per breakage
 
     def on_fracture(self, sim):
         s = self.s
@@ -237,14 +253,15 @@ class Books:
             # counted only: the particle stays as an unbreakable stand-in for its fragments
             # (removing it could leave no free particle at all) and is retired from the books
             rows = sim.pop_events()
-            broke = np.array([r[0] for r in rows], np.int64)
-            specific = np.array([r[1] for r in rows])
+            broke = np.array([r.particle for r in rows], np.int64)
+            specific = np.array([r.specific_energy for r in rows])
             t10 = tavares.t10_prime(s.mat, specific, e_frac[broke])
             parents, gens = s.ids[broke], s.gen[broke]
             sim.breakage.e_frac[broke] = np.inf
             s.gen[broke] = -1
             for pid, g, e, E, t in zip(parents, gens, specific, e_frac[broke], t10):
-                self.events.append((sim.time, pid, g, s.values["diameter"], e, E, t, -1, 0, 0.0))
+                self.events.append(ParticleEvent(sim.time, pid, g, s.values["diameter"], e, E, t,
+                                                 -1, 0, 0.0))
         else:
             k0 = len(self.replace.events)
             self.replace(sim)
@@ -256,8 +273,9 @@ class Books:
             parents = self.replace.last_parent_tags["original"]
             gens = self.replace.last_parent_tags["generation"]
             for ev, pid, g in zip(new, parents, gens):
-                self.events.append((ev.time, pid, g, ev.parent_diameter, ev.specific_energy,
-                                    ev.fracture_energy, ev.t10, ev.family, ev.progeny, ev.fines_mass))
+                self.events.append(ParticleEvent(ev.time, pid, g, ev.parent_diameter,
+                                                 ev.specific_energy, ev.fracture_energy, ev.t10,
+                                                 ev.family, ev.progeny, ev.fines_mass))
         for j, (pid, g) in enumerate(zip(parents, gens)):
             if g == 0 and pid >= 0 and self.broken_at[pid] == 0:
                 self.broken_at[pid] = self.impact
@@ -328,19 +346,107 @@ def _product(s: Setup, books: Books, sieves, unbreakable="eq13"):
                                    unbreakable)
     fines_total = np.zeros(n)
     for ev in books.events:
-        fines = ev[9]
-        if fines > 0:
-            pid = int(ev[1])
-            per[pid] += fines * tavares.fines_passing(ev[6], sieves * d0 / ev[3], s.mat)
-            fines_total[pid] += fines
+        if ev.fines_mass > 0:
+            pid = int(ev.particle)
+            per[pid] += ev.fines_mass * tavares.fines_passing(ev.t10, sieves * d0 / ev.parent_diameter,
+                                                              s.mat)
+            fines_total[pid] += ev.fines_mass
     resolved = np.bincount(owner, weights=mass, minlength=n)
     balance = float(np.max(np.abs(resolved + fines_total - m0)) / m0)
     return 100.0 * per / m0, balance
 
 
+def _repeated(values):
+    return values["mode"] == "repeated"
+
+
+def _replacing(values):
+    """Broken particles are replaced by their progeny (not in repeated impacts)."""
+    return values["replacement"] and not _repeated(values)
+
+
 class SingleParticleCase(Case):
     """Impacts one after another: each runs until it is over (nothing loads, approaches or falls
     back) or the time cap; between impacts the survivors are put back in free flight."""
+
+    outputs = (
+        Output("particle", ("particle",), "1", "particle index", coord=True),
+        Output("impact", ("impact",), "1", "impact number", coord=True),
+        Output("event", ("event",), "1", "breakage event", coord=True),
+        Output("sieve", ("sieve",), "1", "sieve size / initial diameter", coord=True,
+               when=_replacing),
+        # per particle
+        Output("particle_broken", ("particle",), "1", "broke (1) or not (0)"),
+        Output("particle_broken_at_impact", ("particle",), "1", "impact at which it broke (0: never)"),
+        Output("particle_fracture_energy_initial", ("particle",), "J kg-1",
+               "fracture energy drawn at creation (absorbed basis)"),
+        Output("particle_fracture_energy_final", ("particle",), "J kg-1",
+               "damaged fracture energy at the end (NaN: broke)"),
+        Output("particle_fracture_energy_at_break", ("particle",), "J kg-1",
+               "(damaged) fracture energy the breaking event reached"),
+        Output("particle_absorbed_energy", ("particle",), "J kg-1", "absorbed specific energy of "
+               "the first event (at breakage if it broke; from its damage, eq 6 inverted, if not)"),
+        Output("particle_t10_primary", ("particle",), "%", "t10' of its primary breakage event (eq 8)"),
+        # the broken fraction against the analytic probability, and the inputs
+        Output("n_particles", (), "1", "particles stressed"),
+        Output("n_broken", (), "1", "particles broken"),
+        Output("broken_fraction", (), "1", "fraction broken"),
+        Output("broken_fraction_ci_lo", (), "1", "95% Clopper-Pearson lower bound"),
+        Output("broken_fraction_ci_hi", (), "1", "95% Clopper-Pearson upper bound"),
+        Output("specific_energy", (), "J kg-1", "set input (stressing) specific energy Ek/m"),
+        Output("energy_ratio", (), "1", "Ek/m over the stressing-basis median E50"),
+        Output("absorbed_share", (), "1", "absorbed share of the input energy, eq 4 vs steel"),
+        Output("impact_speed", (), "m s-1",
+               "speed of the particle (single, repeated) or striker (drop_weight)"),
+        Output("median_fracture_energy", (), "J kg-1", "E50 (absorbed basis, eq 3)"),
+        Output("gamma_used", (), "1", "damage coefficient used"),
+        Output("converged", ("impact",), "1", "impact ended before the time cap"),
+        Output("impact_broken_fraction", ("impact",), "1",
+               "cumulative fraction broken after each impact", when=_repeated),
+        Output("impact_broken_fraction_ci_lo", ("impact",), "1", "95% Clopper-Pearson lower",
+               when=_repeated),
+        Output("impact_broken_fraction_ci_hi", ("impact",), "1", "95% Clopper-Pearson upper",
+               when=_repeated),
+        Output("impact_broken_fraction_analytic", ("impact",), "1", "damage model, eqs 1-6",
+               when=_repeated),
+        Output("broken_fraction_analytic", (), "1",
+               "analytic probability (eqs 1-3; after all impacts for repeated)"),
+        # event_<field> for every field of a ParticleEvent
+        Output("event_time", ("event",), "s", "time of breakage"),
+        Output("event_particle", ("event",), "1", "original particle"),
+        Output("event_generation", ("event",), "1", "0: original, 1: its progeny, ..."),
+        Output("event_parent_diameter", ("event",), "m", "diameter of the breaking particle"),
+        Output("event_specific_energy", ("event",), "J kg-1", "absorbed specific energy at breakage"),
+        Output("event_fracture_energy", ("event",), "J kg-1", "fracture energy exceeded"),
+        Output("event_t10", ("event",), "%", "t10' of the event (family grid value)"),
+        Output("event_family", ("event",), "1", "family drawn (-1: no replacement)"),
+        Output("event_progeny", ("event",), "1", "resolved progeny spheres"),
+        Output("event_fines_mass", ("event",), "kg", "unresolved fines (dummy class) mass"),
+        Output("t10_primary_model", (), "%", "eq 9: t10' at breakage at the fracture energy"),
+        # the progeny against the model (with particle replacement)
+        Output("particle_product_t10", ("particle",), "%",
+               "% of its product passing d0/10 (broken only)", when=_replacing),
+        Output("particle_progeny", ("particle",), "1", "resolved spheres it ended as",
+               when=_replacing),
+        Output("product_passing", ("sieve",), "%", "cumulative % passing of the broken particles' "
+               "product (fines included, resolved-unbreakable spheres by eq 13)",
+               "mean over the broken particles of their own product's passing", when=_replacing),
+        Output("product_passing_spheres", ("sieve",), "%", "the same with resolved-unbreakable "
+               "spheres kept at their size (Fig 13 of Tavares et al. 2021)", when=_replacing),
+        Output("unbreakable_records", (), "1", "resolved-unbreakable spheres that reached their "
+               "fracture energy (eq 13 applied)", when=_replacing),
+        Output("product_passing_model", ("sieve",), "%",
+               "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75", when=_replacing),
+        Output("product_t10", (), "%", "t10 of the broken particles' product", when=_replacing),
+        Output("product_t10_ci_lo", (), "%", "95% bootstrap lower",
+               "percentile bootstrap of the mean over the broken particles", when=_replacing),
+        Output("product_t10_ci_hi", (), "%", "95% bootstrap upper", when=_replacing),
+        Output("product_t10_model", (), "%", "eq 7, E50b = median of the broken", when=_replacing),
+        Output("product_t10_model_all", (), "%", "eq 7, E50b = median of all", when=_replacing),
+        Output("fines_mass", (), "kg", "unresolved fines mass", when=_replacing),
+        Output("mass_balance_error", (), "1",
+               "max over particles |resolved + fines - initial| / initial mass", when=_replacing),
+    )
 
     def __init__(self, values):
         super().__init__()
@@ -349,7 +455,7 @@ class SingleParticleCase(Case):
         self.sim = sim = s.sim
         n = values["n_particles"]
         self.mode = values["mode"]
-        self.replacing = values["replacement"] and self.mode != "repeated"
+        self.replacing = _replacing(values)
         self.replace = TavaresReplacement({s.mat.name: s.mat},
                                           d_min=tavares.global_min_size(values["diameter"]),
                                           seed=s.case_seed, dummy_as="fines",
@@ -411,20 +517,23 @@ class SingleParticleCase(Case):
         return (k - 1 + within) / self.impacts, f"impact {k}, {int((self.books.broken_at > 0).sum())} broken"
 
     def finish(self):
-        n, s = self.values["n_particles"], self.s
         broken = self.books.broken_at > 0
-        data = self._particle_outputs(broken)
+        data = {"particle": np.arange(self.values["n_particles"]),
+                "impact": np.arange(1, len(self.converged) + 1),
+                "event": np.arange(len(self.books.events))}
+        data.update(self._particle_outputs(broken))
         data.update(self._summary_outputs(broken))
-        ev = self._event_outputs(data)
-        coords = {"particle": ("particle", np.arange(n), {"units": "1", "long_name": "particle index"}),
-                  "impact": ("impact", np.arange(1, len(self.converged) + 1),
-                             {"units": "1", "long_name": "impact number"}),
-                  "event": ("event", np.arange(len(ev)), {"units": "1", "long_name": "breakage event"})}
+        data.update({f"event_{name}": np.array([getattr(ev, name) for ev in self.books.events],
+                                               dtype=float) for name in ParticleEvent._fields})
+        data["t10_primary_model"] = tavares.t10_min(self.s.mat)
         if self.replacing:
-            self._product_outputs(broken, data, coords)
-        extra = {"case_seed": s.case_seed, "contact_time_s": s.t_contact, "gravity": "off",
-                 "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"}
-        return data, coords, extra
+            data.update(self._product_outputs(broken))
+        return data
+
+    def provenance(self):
+        s = self.s
+        return {"case_seed": s.case_seed, "contact_time_s": s.t_contact, "gravity": "off",
+                "energy_basis": "input (stressing) Ek/m; absorbed = absorbed_share x Ek/m"}
 
     def _particle_outputs(self, broken):
         """Per particle: whether and when it broke, its fracture energies and absorbed energy."""
@@ -434,34 +543,13 @@ class SingleParticleCase(Case):
         e_final = np.full(self.values["n_particles"], np.nan)
         alive = (s.gen == 0) & (s.ids >= 0)
         e_final[s.ids[alive]] = self.sim.breakage.e_frac[alive]
-        return {
-            "particle_broken": (
-                "particle", broken.astype(np.int8),
-                {"units": "1", "long_name": "broke (1) or not (0)"}),
-            "particle_broken_at_impact": (
-                "particle", books.broken_at,
-                {"units": "1", "long_name": "impact at which it broke (0: never)"}),
-            "particle_fracture_energy_initial": (
-                "particle", self.e_initial,
-                {"units": "J kg-1",
-                 "long_name": "fracture energy drawn at creation (absorbed basis)"}),
-            "particle_fracture_energy_final": (
-                "particle", e_final,
-                {"units": "J kg-1",
-                 "long_name": "damaged fracture energy at the end (NaN: broke)"}),
-            "particle_fracture_energy_at_break": (
-                "particle", books.e_break,
-                {"units": "J kg-1",
-                 "long_name": "(damaged) fracture energy the breaking event reached"}),
-            "particle_absorbed_energy": (
-                "particle", absorbed_first,
-                {"units": "J kg-1",
-                 "long_name": "absorbed specific energy of the first event (at breakage if it "
-                              "broke; from its damage, eq 6 inverted, if not)"}),
-            "particle_t10_primary": (
-                "particle", books.t10_primary,
-                {"units": "%", "long_name": "t10' of its primary breakage event (eq 8)"}),
-        }
+        return {"particle_broken": broken.astype(np.int8),
+                "particle_broken_at_impact": books.broken_at,
+                "particle_fracture_energy_initial": self.e_initial,
+                "particle_fracture_energy_final": e_final,
+                "particle_fracture_energy_at_break": books.e_break,
+                "particle_absorbed_energy": absorbed_first,
+                "particle_t10_primary": books.t10_primary}
 
     def _summary_outputs(self, broken):
         """The broken fraction with its confidence interval against the analytic probability,
@@ -469,77 +557,26 @@ class SingleParticleCase(Case):
         s, n, d0 = self.s, self.values["n_particles"], self.values["diameter"]
         nb = int(broken.sum())
         lo, hi = binomial_interval(nb, n)
+        data = {"n_particles": n, "n_broken": nb, "broken_fraction": nb / n,
+                "broken_fraction_ci_lo": float(lo), "broken_fraction_ci_hi": float(hi),
+                "specific_energy": s.specific_energy,
+                "energy_ratio": s.specific_energy / tv.stressing_median(s.mat, d0, s.share),
+                "absorbed_share": s.share, "impact_speed": s.speed,
+                "median_fracture_energy": float(tavares.median_fracture_energy(s.mat, d0)),
+                "gamma_used": s.mat.gamma, "converged": np.array(self.converged, np.int8)}
         analytic = float(tv.breakage_probability(s.mat, d0, s.specific_energy, s.share))
-        data = {
-            "n_particles": ((), n, {"units": "1", "long_name": "particles stressed"}),
-            "n_broken": ((), nb, {"units": "1", "long_name": "particles broken"}),
-            "broken_fraction": ((), nb / n, {"units": "1", "long_name": "fraction broken"}),
-            "broken_fraction_ci_lo": ((), float(lo), {"units": "1", "long_name": "95% Clopper-Pearson lower bound"}),
-            "broken_fraction_ci_hi": ((), float(hi), {"units": "1", "long_name": "95% Clopper-Pearson upper bound"}),
-            "specific_energy": (
-                (), s.specific_energy,
-                {"units": "J kg-1", "long_name": "set input (stressing) specific energy Ek/m"}),
-            "energy_ratio": (
-                (), s.specific_energy / tv.stressing_median(s.mat, d0, s.share),
-                {"units": "1", "long_name": "Ek/m over the stressing-basis median E50"}),
-            "absorbed_share": (
-                (), s.share,
-                {"units": "1", "long_name": "absorbed share of the input energy, eq 4 vs steel"}),
-            "impact_speed": (
-                (), s.speed,
-                {"units": "m s-1",
-                 "long_name": "speed of the particle (single, repeated) or striker (drop_weight)"}),
-            "median_fracture_energy": (
-                (), float(tavares.median_fracture_energy(s.mat, d0)),
-                {"units": "J kg-1", "long_name": "E50 (absorbed basis, eq 3)"}),
-            "gamma_used": ((), s.mat.gamma, {"units": "1", "long_name": "damage coefficient used"}),
-            "converged": (
-                ("impact",), np.array(self.converged, np.int8),
-                {"units": "1", "long_name": "impact ended before the time cap"}),
-        }
         if self.mode == "repeated":
             cum = np.array(self.per_impact, float)
             ilo, ihi = binomial_interval(cum, n)
-            data.update(
-                impact_broken_fraction=(
-                    ("impact",), cum / n,
-                    {"units": "1", "long_name": "cumulative fraction broken after each impact"}),
-                impact_broken_fraction_ci_lo=(
-                    ("impact",), ilo, {"units": "1", "long_name": "95% Clopper-Pearson lower"}),
-                impact_broken_fraction_ci_hi=(
-                    ("impact",), ihi, {"units": "1", "long_name": "95% Clopper-Pearson upper"}),
-                impact_broken_fraction_analytic=(
-                    ("impact",),
-                    tv.repeated_impact_broken(s.mat, d0, s.specific_energy, s.share, self.impacts),
-                    {"units": "1", "long_name": "damage model, eqs 1-6"}),
-            )
-            analytic = float(data["impact_broken_fraction_analytic"][1][-1])
-        data["broken_fraction_analytic"] = (
-            (), analytic,
-            {"units": "1",
-             "long_name": "analytic probability (eqs 1-3; after all impacts for repeated)"})
+            data.update(impact_broken_fraction=cum / n, impact_broken_fraction_ci_lo=ilo,
+                        impact_broken_fraction_ci_hi=ihi,
+                        impact_broken_fraction_analytic=tv.repeated_impact_broken(
+                            s.mat, d0, s.specific_energy, s.share, self.impacts))
+            analytic = float(data["impact_broken_fraction_analytic"][-1])
+        data["broken_fraction_analytic"] = analytic
         return data
 
-    def _event_outputs(self, data):
-        """One row per breakage event into ``data``; returns the events' table."""
-        ev = np.array(self.books.events, dtype=float).reshape(-1, 10)
-        for col, (name, unit, long) in enumerate([
-                ("event_time", "s", "time of breakage"), ("event_particle", "1", "original particle"),
-                ("event_generation", "1", "0: original, 1: its progeny, ..."),
-                ("event_parent_diameter", "m", "diameter of the breaking particle"),
-                ("event_specific_energy", "J kg-1", "absorbed specific energy at breakage"),
-                ("event_fracture_energy", "J kg-1", "fracture energy exceeded"),
-                ("event_t10", "%", "t10' of the event (family grid value)"),
-                ("event_family", "1", "family drawn (-1: no replacement)"),
-                ("event_progeny", "1", "resolved progeny spheres"),
-                ("event_fines_mass", "kg", "unresolved fines (dummy class) mass")]):
-            data[name] = ("event", ev[:, col], {"units": unit, "long_name": long})
-        data["t10_primary_model"] = (
-            (), tavares.t10_min(self.s.mat),
-            {"units": "%", "long_name": "eq 9: t10' at breakage at the fracture energy"})
-        return ev
-
-    def _product_outputs(self, broken, data, coords):
+    def _product_outputs(self, broken):
         """The progeny of the broken particles against the model: t10 and product passing (with
         particle replacement only)."""
         values, s, sim, books, replace = self.values, self.s, self.sim, self.books, self.replace
@@ -553,47 +590,17 @@ class SingleParticleCase(Case):
         recorded = np.isfinite(sim.breakage.t10_recorded) & (s.ids >= 0)
         t10_pool = float(np.nanmean(t10_each)) if nb else math.nan
         blo, bhi = bootstrap_interval(t10_each[broken], seed=s.case_seed) if nb else (math.nan, math.nan)
-        coords["sieve"] = ("sieve", SIEVES, {"units": "1", "long_name": "sieve size / initial diameter"})
-        data.update(
-            particle_product_t10=(
-                "particle", t10_each,
-                {"units": "%", "long_name": "% of its product passing d0/10 (broken only)"}),
-            particle_progeny=(
-                "particle", np.bincount(s.ids[s.ids >= 0], minlength=n),
-                {"units": "1", "long_name": "resolved spheres it ended as"}),
-            product_passing=(
-                "sieve", passing,
-                {"units": "%",
-                 "long_name": "cumulative % passing of the broken particles' product (fines "
-                              "included, resolved-unbreakable spheres by eq 13)"}),
-            product_passing_spheres=(
-                "sieve", passing_kept,
-                {"units": "%",
-                 "long_name": "the same with resolved-unbreakable spheres kept at their size "
-                              "(Fig 13 of Tavares et al. 2021)"}),
-            unbreakable_records=(
-                (), int(recorded.sum()),
-                {"units": "1",
-                 "long_name": "resolved-unbreakable spheres that reached their fracture "
-                              "energy (eq 13 applied)"}),
-            product_passing_model=(
-                "sieve", tv.product_passing_model(s.mat, d0, s.specific_energy, s.share, SIEVES),
-                {"units": "%", "long_name": "model: eq 10 at the eq 7 t10, eqs 11-12 below d/75"}),
-            product_t10=((), t10_pool, {"units": "%", "long_name": "t10 of the broken particles' product"}),
-            product_t10_ci_lo=((), blo, {"units": "%", "long_name": "95% bootstrap lower"}),
-            product_t10_ci_hi=((), bhi, {"units": "%", "long_name": "95% bootstrap upper"}),
-            product_t10_model=(
-                (), tv.t10_model(s.mat, d0, s.specific_energy, s.share),
-                {"units": "%", "long_name": "eq 7, E50b = median of the broken"}),
-            product_t10_model_all=(
-                (), tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"),
-                {"units": "%", "long_name": "eq 7, E50b = median of all"}),
-            fines_mass=((), replace.fines_mass, {"units": "kg", "long_name": "unresolved fines mass"}),
-            mass_balance_error=(
-                (), balance,
-                {"units": "1",
-                 "long_name": "max over particles |resolved + fines - initial| / initial mass"}),
-        )
+        return {"sieve": SIEVES, "particle_product_t10": t10_each,
+                "particle_progeny": np.bincount(s.ids[s.ids >= 0], minlength=n),
+                "product_passing": passing, "product_passing_spheres": passing_kept,
+                "unbreakable_records": int(recorded.sum()),
+                "product_passing_model": tv.product_passing_model(s.mat, d0, s.specific_energy,
+                                                                  s.share, SIEVES),
+                "product_t10": t10_pool, "product_t10_ci_lo": blo, "product_t10_ci_hi": bhi,
+                "product_t10_model": tv.t10_model(s.mat, d0, s.specific_energy, s.share),
+                "product_t10_model_all": tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"),
+                "fines_mass": replace.fines_mass, "mass_balance_error": balance}
+
 
 register(Scene("single_particle", "single-particle impact, drop-weight and repeated-impact tests of "
                "the Tavares model against its analytic predictions "

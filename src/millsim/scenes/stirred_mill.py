@@ -29,9 +29,17 @@ from ..models.contact import linear_contact_time
 from ..models.lubrication import AUTO_STEP_RATIO, SCHEMES, TOLERANCE, check_lubrication_params
 from ..models.materials import damping_ratio
 from ..util.memory import RECORD_VALUE_BYTES, check_memory
-from ..util.stats import block_mean_ci
-from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
-from .driver import Case, Series
+from ..util.stats import block_mean_ci, mser5
+from .base import (
+    TIME_STEP_PARAMS,
+    DriveMark,
+    Param,
+    Scene,
+    check_particle_memory,
+    register,
+    step_policy,
+)
+from .driver import Case, Output, Series
 
 G = 9.81
 AXIS = np.array([1.0, 0.0, 0.0])
@@ -338,23 +346,9 @@ def elastic_energy(sim, k_n, k_t):
     return normal, tangential
 
 
-def mser5(series):
-    """Index where the steady state starts: MSER-5 truncation (White 1997) on batch means of 5.
-
-    Minimises the squared standard error of the mean of what is kept, truncating at most half.
-    """
-    x = np.asarray(series, dtype=float)
-    nb = len(x) // 5
-    if nb < 4:
-        return 0
-    b = x[: 5 * nb].reshape(nb, 5).mean(1)
-    best, arg = math.inf, 0
-    for d in range(nb // 2 + 1):
-        kept = b[d:]
-        val = kept.var() / len(kept)
-        if val < best:
-            best, arg = val, d
-    return 5 * arg
+# The coarse-grained fields in the order Sampler sums them: the samples, then the sums of |v|, |w|,
+# v_y and v_z that become their means
+CG_FIELDS = ("cg_samples", "cg_speed", "cg_spin", "cg_vy", "cg_vz")
 
 
 class Sampler:
@@ -368,7 +362,7 @@ class Sampler:
         cells = values["cg_cells"]
         R = g["chamber_radius"]
         self.edges = np.linspace(-R, R, cells + 1)
-        self.cg = np.zeros((5, cells, cells))  # count, |v|, |w|, v_y, v_z
+        self.cg = np.zeros((len(CG_FIELDS), cells, cells))  # sums of the CG_FIELDS
         mid = len(g["disk_x"]) // 2
         face = g["disk_x"][mid] + 0.5 * g["disk_thickness"]
         self.slab = (face, face + 0.5 * (g["pitch"] - g["disk_thickness"]))
@@ -463,6 +457,61 @@ class StirredMillCase(Case):
         "impact = contact normal damping + lubrication normal; shearing = tangential force x centre "
         "slip + lubrication tangential; rolling = tangential force x rotational slip; torsion = 0 "
         "(no twisting torque in the model)")}
+    outputs = (
+        Output("typology", ("typology",), "1", "contact typology", coord=True),
+        Output("audit_term", ("audit_term",), "1", "dissipation term of the engine audit", coord=True),
+        Output("region", ("region",), "1", "region: radial ring 1 (inner) - 3 (outer) x "
+               "F(ront)/C(entre)/B(ack) along x", coord=True),
+        # CF axes: y horizontal, z vertical (gravity along -z)
+        Output("gy", ("gy",), "m", "coarse-graining cell centre y", coord=True, cf={"axis": "Y"}),
+        Output("gz", ("gz",), "m", "coarse-graining cell centre z", coord=True,
+               cf={"axis": "Z", "positive": "up"}),
+        Output("net_power", (), "W", "steady-state mean net power",
+               "mean of the recorded power over the averaging window (statistics_start on)"),
+        Output("net_power_ci", (), "W", "95% half-width of the net power (block means)",
+               "Student t over ci_blocks block means"),
+        Output("mean_torque", (), "N m", "steady-state mean agitator torque"),
+        Output("mean_torque_ci", (), "N m", "95% half-width of the torque (block means)"),
+        Output("steady_state_start", (), "s", "start of the steady state (MSER-5 on the power)"),
+        Output("statistics_start", (), "s",
+               "start of the averaging window: max(transient, steady-state start)"),
+        Output("steady_state_detected", (), "1",
+               "1 if the detected steady state starts before the transient ends"),
+        Output("energy_in", (), "J", "work of agitator + shaft over the window"),
+        Output("delta_kinetic", (), "J", "change of bead kinetic energy over the window"),
+        Output("delta_potential", (), "J", "change of potential energy over the window"),
+        Output("delta_elastic_normal", (), "J", "change of normal spring energy"),
+        Output("delta_elastic_tangential", (), "J",
+               "change of tangential spring energy (inside the audit terms)"),
+        Output("dissipation", ("audit_term",), "J", "energy dissipated over the window, by audit term"),
+        Output("dissipation_power", ("audit_term",), "W",
+               "mean dissipated power over the window, by audit term"),
+        Output("energy_balance_residual", (), "J", "energy in - (changes + dissipation), window"),
+        Output("energy_balance_error", (), "1", "residual / energy in, steady window"),
+        Output("energy_balance_error_run", (), "1", "residual / energy in, whole run"),
+        Output("typology_energy", ("typology",), "J", "dissipated energy by contact typology, window",
+               "the audit terms summed by typology (typology_definition)"),
+        Output("typology_fraction", ("typology",), "1",
+               "fraction of the dissipated energy by contact typology"),
+        Output("collision_rate", ("region",), "s-1", "new bead-bead contacts per second by region",
+               "bead pairs in contact at a sample and not at the one before, over the sampled time"),
+        Output("collision_frequency_relative", ("region",), "%",
+               "relative collision frequency by region"),
+        Output("cg_speed", ("gz", "gy"), "m s-1", "coarse-grained translational speed |v| on the slab",
+               "mean over the samples of the beads in the slab between the middle disk and the "
+               "middle of the next gap"),
+        Output("cg_spin", ("gz", "gy"), "rad s-1", "coarse-grained rotational speed |w| on the slab"),
+        Output("cg_vy", ("gz", "gy"), "m s-1", "coarse-grained velocity y on the slab"),
+        Output("cg_vz", ("gz", "gy"), "m s-1", "coarse-grained velocity z on the slab"),
+        Output("cg_samples", ("gz", "gy"), "1", "bead samples per coarse-graining cell"),
+        Output("n_bead", (), "1", "beads"),
+        Output("n_agitator_particles", (), "1", "spheres forming the disks"),
+        Output("chamber_length", (), "m", "chamber length (from the void volume)"),
+        Output("domain_length", (), "m", "simulated axial length (slice or chamber)"),
+        Output("domain_void_volume", (), "m3", "void volume of the simulated domain"),
+        Output("tip_speed", (), "m s-1", "disk tip speed"),
+        Output("angular_velocity", (), "rad s-1", "agitator angular velocity"),
+    )
 
     def __init__(self, values):
         super().__init__()
@@ -489,7 +538,7 @@ class StirredMillCase(Case):
                 f"{2 * per_record:.3g}")
         self.smp = Sampler(values, g)
         self.attrs = dict(self.attrs, cg_slab_x=np.array(self.smp.slab))
-        self.last = drive_state(sim) + (sim.time,)
+        self.last = DriveMark(*drive_state(sim), sim.time)
         self.start = energy_state(sim, self.k_n, self.k_t)
         self.window_start = None
         self.samples = 0
@@ -499,11 +548,11 @@ class StirredMillCase(Case):
     def _record(self):
         sim = self.sim
         impulse, work = drive_state(sim)
-        span = sim.time - self.last[2]
-        self.record(sim.time, agitator_torque=(impulse - self.last[0]) / span,
-                    agitator_power=(work - self.last[1]) / span,
+        span = sim.time - self.last.time
+        self.record(sim.time, agitator_torque=(impulse - self.last.angular_impulse) / span,
+                    agitator_power=(work - self.last.work) / span,
                     kinetic_energy=sim.kinetic_energy())
-        self.last = (impulse, work, sim.time)
+        self.last = DriveMark(impulse, work, sim.time)
 
     def _open_window(self):
         self.smp.sample(self.sim, 0.0)  # contacts at the window start (no collisions counted)
@@ -562,72 +611,41 @@ class StirredMillCase(Case):
         with np.errstate(invalid="ignore", divide="ignore"):
             cg = smp.cg[1:] / np.where(cg_n > 0, cg_n, np.nan)
 
-        def var(dims, value, units, long_name):
-            return (dims, value, {"units": units, "long_name": long_name})
-
         centres = 0.5 * (smp.edges[1:] + smp.edges[:-1])
-        coords = {
-            "typology": var("typology", np.array(TYPOLOGY), "1", "contact typology"),
-            "audit_term": var("audit_term", np.array(AUDIT), "1", "dissipation term of the engine audit"),
-            "region": var("region", np.array(REGIONS), "1",
-                          "region: radial ring 1 (inner) - 3 (outer) x F(ront)/C(entre)/B(ack) along x"),
-            # CF axes: y horizontal, z vertical (gravity along -z)
-            "gy": ("gy", centres, {"units": "m", "long_name": "coarse-graining cell centre y",
-                                   "axis": "Y"}),
-            "gz": ("gz", centres, {"units": "m", "long_name": "coarse-graining cell centre z",
-                                   "axis": "Z", "positive": "up"}),
+        dissipation = np.array([d[k] for k in AUDIT])
+        return {
+            "typology": np.array(TYPOLOGY), "audit_term": np.array(AUDIT),
+            "region": np.array(REGIONS), "gy": centres, "gz": centres,
+            "net_power": p_mean, "net_power_ci": p_ci, "mean_torque": q_mean, "mean_torque_ci": q_ci,
+            "steady_state_start": t_steady, "statistics_start": float(t[use][0] - (t[1] - t[0])),
+            "steady_state_detected": int(t_steady <= window_start["time"] + 1e-12),
+            "energy_in": d["work"], "delta_kinetic": d["kinetic"], "delta_potential": d["potential"],
+            "delta_elastic_normal": d["elastic_normal"],
+            "delta_elastic_tangential": d["elastic_tangential"],
+            "dissipation": dissipation, "dissipation_power": dissipation / span,
+            "energy_balance_residual": residual, "energy_balance_error": rel,
+            "energy_balance_error_run": rel_all,
+            "typology_energy": typ,
+            "typology_fraction": typ / dissipated if dissipated > 0 else typ * np.nan,
+            "collision_rate": coll / max(smp.window_time, 1e-300),
+            "collision_frequency_relative": 100 * coll / max(coll.sum(), 1),
+            **dict(zip(CG_FIELDS[1:], cg)), "cg_samples": cg_n,
+            "n_bead": g["n_beads"], "n_agitator_particles": g["n_agitator_particles"],
+            "chamber_length": g["chamber_length"], "domain_length": g["length"],
+            "domain_void_volume": g["void_volume"], "tip_speed": g["tip_speed"],
+            "angular_velocity": g["omega"],
         }
-        data = {
-            "net_power": var((), p_mean, "W", "steady-state mean net power"),
-            "net_power_ci": var((), p_ci, "W", "95% half-width of the net power (block means)"),
-            "mean_torque": var((), q_mean, "N m", "steady-state mean agitator torque"),
-            "mean_torque_ci": var((), q_ci, "N m", "95% half-width of the torque (block means)"),
-            "steady_state_start": var((), t_steady, "s", "start of the steady state (MSER-5 on the power)"),
-            "statistics_start": var((), float(t[use][0] - (t[1] - t[0])), "s",
-                                    "start of the averaging window: max(transient, steady-state start)"),
-            "steady_state_detected": var((), int(t_steady <= window_start["time"] + 1e-12), "1",
-                                         "1 if the detected steady state starts before the transient ends"),
-            "energy_in": var((), d["work"], "J", "work of agitator + shaft over the window"),
-            "delta_kinetic": var((), d["kinetic"], "J", "change of bead kinetic energy over the window"),
-            "delta_potential": var((), d["potential"], "J", "change of potential energy over the window"),
-            "delta_elastic_normal": var((), d["elastic_normal"], "J", "change of normal spring energy"),
-            "delta_elastic_tangential": var((), d["elastic_tangential"], "J",
-                                            "change of tangential spring energy (inside the audit terms)"),
-            "dissipation": var("audit_term", np.array([d[k] for k in AUDIT]), "J",
-                               "energy dissipated over the window, by audit term"),
-            "dissipation_power": var("audit_term", np.array([d[k] for k in AUDIT]) / span, "W",
-                                     "mean dissipated power over the window, by audit term"),
-            "energy_balance_residual": var((), residual, "J", "energy in - (changes + dissipation), window"),
-            "energy_balance_error": var((), rel, "1", "residual / energy in, steady window"),
-            "energy_balance_error_run": var((), rel_all, "1", "residual / energy in, whole run"),
-            "typology_energy": var("typology", typ, "J", "dissipated energy by contact typology, window"),
-            "typology_fraction": var("typology", typ / dissipated if dissipated > 0 else typ * np.nan, "1",
-                                     "fraction of the dissipated energy by contact typology"),
-            "collision_rate": var("region", coll / max(smp.window_time, 1e-300), "s-1",
-                                  "new bead-bead contacts per second by region"),
-            "collision_frequency_relative": var("region", 100 * coll / max(coll.sum(), 1), "%",
-                                                "relative collision frequency by region"),
-            "cg_speed": var(("gz", "gy"), cg[0], "m s-1", "coarse-grained translational speed |v| on the slab"),
-            "cg_spin": var(("gz", "gy"), cg[1], "rad s-1", "coarse-grained rotational speed |w| on the slab"),
-            "cg_vy": var(("gz", "gy"), cg[2], "m s-1", "coarse-grained velocity y on the slab"),
-            "cg_vz": var(("gz", "gy"), cg[3], "m s-1", "coarse-grained velocity z on the slab"),
-            "cg_samples": var(("gz", "gy"), cg_n, "1", "bead samples per coarse-graining cell"),
-            "n_bead": var((), g["n_beads"], "1", "beads"),
-            "n_agitator_particles": var((), g["n_agitator_particles"], "1", "spheres forming the disks"),
-            "chamber_length": var((), g["chamber_length"], "m", "chamber length (from the void volume)"),
-            "domain_length": var((), g["length"], "m", "simulated axial length (slice or chamber)"),
-            "domain_void_volume": var((), g["void_volume"], "m3", "void volume of the simulated domain"),
-            "tip_speed": var((), g["tip_speed"], "m s-1", "disk tip speed"),
-            "angular_velocity": var((), g["omega"], "rad s-1", "agitator angular velocity"),
-        }
-        extra = {"contact_time_s": g["t_c"], "normal_stiffness": self.k_n,
+
+    def provenance(self):
+        sim = self.sim
+        extra = {"contact_time_s": self.g["t_c"], "normal_stiffness": self.k_n,
                  "list_rebuilds": int(sim.counters[0])}
         if sim.fluid is not None:  # the scheme that ran ("auto" picks one at the build)
             extra.update(lubrication_scheme_used=sim.fluid.scheme)
         if sim.fluid is not None and sim.fluid.implicit:  # cost of the implicit solve
             extra.update(lubrication_iterations_per_step=float(sim.counters[2]) / max(sim.step, 1),
                          lubrication_iterations_max=int(sim.counters[3]))
-        return data, coords, extra
+        return extra
 
 
 register(Scene("stirred_mill", "wet horizontal stirred media mill, perforated-disk agitator, pairwise "

@@ -5,7 +5,9 @@
 - ``block_mean_interval``: the mean of block means, Student t: the one interval of correlated
   records, used by
 - ``block_mean_ci``: the mean of a correlated time series, from its block means, and
-- ``steady_rate``: an event rate over a window, from the rates of its blocks.
+- ``steady_rate``: an event rate over a window, from the rates of its blocks;
+- ``slope_interval``: a least-squares slope and the half-width of its Student-t interval;
+- ``mser5``: where the steady state of a time series starts (MSER-5 truncation).
 """
 
 import math
@@ -90,3 +92,29 @@ def steady_rate(event_times, t_start, t_end, blocks=10, confidence=LEVEL):
     block_rates = counts / np.diff(edges)
     mean, half = block_mean_interval(block_rates, confidence)
     return mean, half, block_rates
+
+
+def slope_interval(x, y, level=LEVEL):
+    """Least-squares slope of ``y`` over ``x`` and the half-width of its Student-t interval
+    (n - 2 degrees of freedom; at least three points)."""
+    fit = stats.linregress(x, y)
+    return fit.slope, stats.t.ppf(0.5 + level / 2, len(x) - 2) * fit.stderr
+
+
+def mser5(series):
+    """Index where the steady state starts: MSER-5 truncation (White 1997) on batch means of 5.
+
+    Minimises the squared standard error of the mean of what is kept, truncating at most half.
+    """
+    x = np.asarray(series, dtype=float)
+    nb = len(x) // 5
+    if nb < 4:
+        return 0
+    b = x[: 5 * nb].reshape(nb, 5).mean(1)
+    best, arg = math.inf, 0
+    for d in range(nb // 2 + 1):
+        kept = b[d:]
+        val = kept.var() / len(kept)
+        if val < best:
+            best, arg = val, d
+    return 5 * arg

@@ -240,6 +240,16 @@ class WeibullModel(ParticleModel):
         return [int(j) for j in c.nbr[mine][twin[mine]]] + [int(o) for o in owner[twin[theirs]]]
 
 
+class Fracture(NamedTuple):
+    """One breakage of :class:`WeibullSplit`: when, where, which grain, how hard."""
+
+    time: float  # [s]
+    x: float  # centre of the breaking grain [m]
+    y: float
+    radius: float  # of the breaking grain [m]
+    force: float  # peak normal force of the breaking contact [N]
+
+
 class WeibullSplit:
     """Breakage handler of Buchholtz et al. 2000 (``Simulation.run(on_events=...)``): every grain
     that broke in the last step becomes two disks (:func:`split_disk`, opened across the breaking
@@ -259,7 +269,7 @@ class WeibullSplit:
 
     def __init__(self, sieve_radius, mass, material, rng):
         self.sieve_radius, self.mass, self.material, self.rng = sieve_radius, mass, material, rng
-        self.events = []  # (t, x, y, R, F) of every breakage
+        self.events = []  # a Fracture per breakage
         self.dust_total = 0.0  # dust removed so far [kg]
         self.dust_pending = 0.0  # dust removed and not yet returned by the caller [kg]
 
@@ -272,7 +282,7 @@ class WeibullSplit:
             d = p.x[i] - p.x[j]
             centres, radii = split_disk(p.x[i].copy(), float(p.radius[i]), d / np.linalg.norm(d),
                                         self.rng.uniform())
-            self.events.append((sim.time, p.x[i, 0], p.x[i, 1], float(p.radius[i]), force))
+            self.events.append(Fracture(sim.time, p.x[i, 0], p.x[i, 1], float(p.radius[i]), force))
             parents.append(i)
             keep = radii >= self.sieve_radius
             dust = float(self.mass(radii[~keep]).sum())
