@@ -102,7 +102,7 @@ def test_a_turning_bounded_wall_faster_than_the_step_resolves_stops_the_run(wall
 
 def linear_history_impact(*, v_n, v_t, w, mu, zeta, kt_ratio):
     """A sphere (radius R, mass m, I = 2/5 m R^2) striking a wall of the linear-history model,
-    solved with solve_ivp (rtol 1e-10). Model (models/contact.py docstrings):
+    solved with solve_ivp (rtol 1e-10). Model (models/contact/ docstrings):
       F_n = k_n xi + 2 zeta sqrt(m k_n) xi', never below 0;
       F_t = -k_t s - 2 zeta sqrt(m k_t) v_s, |F_t| <= mu F_n, s' = v_s while it sticks; at the
       Coulomb limit F_t = mu F_n against the slip and the spring carries it alone.

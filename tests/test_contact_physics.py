@@ -20,7 +20,8 @@ from scipy.optimize import brentq
 
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.models import Interaction, Material, MaterialTable
-from millsim.models.contact import hertz_contact_time, linear_contact_time, rayleigh_time
+from millsim.models.contact.hertz_mindlin import hertz_contact_time, rayleigh_time
+from millsim.models.contact.spring_dashpot import linear_contact_time
 
 G = 9.81
 # Unequal elastic constants (Poisson ratios far apart, so that a (1 - nu^2) or (2 - nu) taken from

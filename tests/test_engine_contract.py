@@ -114,7 +114,7 @@ CACHED = textwrap.dedent("""
     from millsim.engine import PhysicsSpec, Simulation
     from millsim.engine.spec import _RUNNERS
     from millsim.models import Interaction, Material, MaterialTable, WeibullModel
-    from millsim.models import contact
+    from millsim.models.contact import hertz_mindlin, linear_history, linear_hw
     spec = PhysicsSpec(dim=2, gravity=False)
     table = MaterialTable([Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3,
         normal_damping_rate=10.0, tangential_damping_rate=10.0)}, "linear_hw")
@@ -122,8 +122,8 @@ CACHED = textwrap.dedent("""
                      v=[[0.05, 0], [-0.05, 0]], thickness=0.01, breakage=WeibullModel(1e-9))
     sim.run(100)
     (runner,) = _RUNNERS.values()
-    print(len(contact.linear_hw.signatures), len(contact.hertz_mindlin.signatures),
-          len(contact.linear_history.signatures), sum(runner.advance.stats.cache_hits.values()),
+    print(len(linear_hw.linear_hw.signatures), len(hertz_mindlin.hertz_mindlin.signatures),
+          len(linear_history.linear_history.signatures), sum(runner.advance.stats.cache_hits.values()),
           sum(runner.advance.stats.cache_misses.values()))
 """)
 

@@ -16,7 +16,8 @@ from scipy.integrate import solve_ivp
 
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.models import Interaction, Material, MaterialTable
-from millsim.models.materials import damping_ratio, hertz_beta_term, hertz_restitution
+from millsim.models.contact.hertz_mindlin import hertz_beta_term, hertz_restitution
+from millsim.models.contact.spring_dashpot import damping_ratio
 from millsim.scenes.base import RunContext, get_scene
 
 SWEEP = (0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95)

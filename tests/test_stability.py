@@ -155,7 +155,7 @@ def _hertz_elastic_energy(sim):
     is not added: the audit's tangential terms already hold it (they integrate the tangential
     force's whole power)."""
     from millsim.engine.kinematics import W_MATERIAL, wall_contact
-    from millsim.models import contact as law
+    from millsim.models.contact import hertz_mindlin as law
 
     p, pp = sim.particles, sim.pair_params
     base = sim.layout.spring  # the breakage model's columns follow the contact law's
@@ -228,7 +228,7 @@ def test_fragments_down_to_a_twentieth_of_the_parent_close_the_energy_audit():
     assert d_min <= d_small < 1.1 * d_min  # a second generation reached the resolved minimum
     # the step followed the fragments: 0.1 of the Rayleigh time of the smallest one
     from millsim.engine.timestep import RAYLEIGH_RECOMMENDED
-    from millsim.models.contact import rayleigh_time
+    from millsim.models.contact.hertz_mindlin import rayleigh_time
 
     mat = sim.table.materials[0]
     t_r = rayleigh_time(p.radius.min(), mat.density, mat.shear_modulus, mat.poisson_ratio)

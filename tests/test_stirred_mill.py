@@ -175,14 +175,15 @@ def test_tiny_stirred_box_energy_balance_closes(tiny_case):
 # ------------------------------------------------------------------------------------------------
 
 DRY_SCENE = textwrap.dedent("""
-    from millsim.models import contact, lubrication
+    from millsim.models import lubrication
+    from millsim.models.contact import linear_history
     from millsim.scenes.base import get_scene
     from millsim.scenes.stirred_mill import build
     values = get_scene("stirred_mill").resolve(dict(scale=0.3, slice=True, n_beads=40, eta=0.0))
     sim, _ = build(values)
     assert sim.fluid is None
     sim.run(20, threads=1)
-    print(len(contact.linear_history.signatures), len(lubrication.pair_force_torque.signatures),
+    print(len(linear_history.linear_history.signatures), len(lubrication.pair_force_torque.signatures),
           len(lubrication.wall_force_torque.signatures), len(lubrication.pair_resistances.signatures),
           len(lubrication.pair_rows.signatures), len(lubrication.wall_rows.signatures))
 """)

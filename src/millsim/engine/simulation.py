@@ -221,7 +221,7 @@ class Simulation:
         self.spec, self.table, self.law = spec, table, table.law
         if spec.rolling_friction and self.law.rolling_column < 0:
             raise ValueError(f"rolling_friction: contact_law {table.contact_law!r} has no rolling "
-                             "friction (hertz_mindlin has)")
+                             "friction coefficient (ContactLaw.rolling_column)")
         for model, kind in ((breakage, "breakage"), (fluid, "fluid")):
             if model is not None and getattr(model, "kind", None) != kind:
                 raise ValueError(f"{kind}: expected a {kind} model, got {model!r}")

@@ -27,7 +27,7 @@ class PhysicsSpec:
             contact ends when it reaches zero; ``unclipped``: the force may pull and the contact
             ends at zero overlap (EDEM, LIGGGHTS ``limitForce off``, MercuryDPM; for cross-code
             comparisons). Either way the damping is set so that a head-on collision returns the
-            asked restitution (``models.materials``).
+            asked restitution (each law's ``row``, ``models.contact``).
         gravity, walls, bodies, periodic: whether those terms exist at all.
         bounded_walls: frustum and annulus walls (engine.kinematics) compiled in (needs walls).
         translating_walls: walls that translate at a constant velocity compiled in (needs walls).

@@ -12,7 +12,7 @@ in every scene:
 - a step above the limit is refused with a message naming the limit and the interaction that sets
   it.
 
-Contact-law constants (models/contact.py): the recommended step resolves a contact with 50 steps
+Contact-law constants (the laws of models/contact/): the recommended step resolves a contact with 50 steps
 (0.1 Rayleigh time for Hertz), the limit is 10 steps per contact (0.4 Rayleigh time, EDEM's upper
 recommendation).
 """
@@ -30,7 +30,12 @@ STEPS_PER_CONTACT_LIMIT = 10
 STEPS_PER_CONTACT_RECOMMENDED = 50
 RAYLEIGH_LIMIT = 0.4
 RAYLEIGH_RECOMMENDED = 0.1
-BOUND_KINDS = ("rayleigh", "hertz_contact", "linear_contact", "tangential_dashpot", "lubrication")
+# Kinds of bound; each contact law adds those it gives when it is registered (models/contact/).
+BOUND_KINDS = ["lubrication"]
+
+
+def register_bound_kinds(kinds):
+    BOUND_KINDS.extend(k for k in kinds if k not in BOUND_KINDS)
 
 
 class TimeStepError(ValueError):
@@ -49,15 +54,17 @@ class StepBound:
 @dataclass(frozen=True)
 class TimeStepReport:
     bounds: tuple
-    # shortest Hertz contact time at the declared impact speed, and that speed (None: linear law)
+    # shortest contact time at the declared impact speed, that speed and the exponent of its
+    # shortening with speed, t_c ~ v^-exponent (None: a law whose contact time does not shorten)
     hertz_contact_time: float = None
     impact_speed: float = None
+    speed_exponent: float = None
 
     def steps_per_contact(self, dt, speed):
-        """Steps resolving the shortest Hertz contact at ``speed`` (t_c scales as v^-1/5)."""
+        """Steps resolving the shortest contact at ``speed`` (Hertz: t_c scales as v^-1/5)."""
         if self.hertz_contact_time is None or speed <= self.impact_speed:
             return math.inf
-        return self.hertz_contact_time * (self.impact_speed / speed) ** 0.2 / dt
+        return self.hertz_contact_time * (self.impact_speed / speed) ** self.speed_exponent / dt
 
     @property
     def limit(self):
@@ -110,7 +117,7 @@ def time_step_report(law, materials, params, dim, integrator, radius, mass, mate
     """Bounds of every material pair that can be in contact, plus ``extra`` bounds (models).
 
     Args:
-        law: the contact law (``pair_bounds``); materials, params: its material table's
+        law: the contact law (``pair_bounds``, ``contact_time_exponent``); materials, params: its material table's
             materials and parameter rows.
         radius, mass, material, body: per-particle arrays (body >= 0 marks kinematic particles).
         boundary_materials: material indices of walls and kinematic bodies.
@@ -130,6 +137,6 @@ def time_step_report(law, materials, params, dim, integrator, radius, mass, mate
     if not bounds:
         raise ValueError("no free particles: nothing sets a time step")
     bounds += list(extra)
-    if math.isfinite(shortest):
-        return TimeStepReport(tuple(bounds), shortest, float(impact_speed))
+    if law.contact_time_exponent:  # only a contact that shortens with speed needs watching
+        return TimeStepReport(tuple(bounds), shortest, float(impact_speed), law.contact_time_exponent)
     return TimeStepReport(tuple(bounds))

@@ -1,12 +1,13 @@
 """Scene ``collision``: one binary impact (two particles, or a particle on a wall).
 
 The engine-level check against analytic contact mechanics. The restitution the interaction asks
-for is what a head-on collision must return in both end-of-contact conventions (linear_history,
-hertz_mindlin); linear_hw's follows from the damping rate of Buchholtz et al. 2000 in closed form.
-Contact times: closed form for the linear laws (ballmill.md section 5, Schwager & Poeschel 2007),
-2.9433 xi_max / v for elastic Hertz, a scipy solution of the damped Hertz normal ODE otherwise. The
-scene writes the measured and the reference values side by side, and the per-step overlap, normal
-force and relative normal velocity.
+for is what a head-on collision must return in both end-of-contact conventions (laws that take a
+restitution); a law that takes a damping rate (Buchholtz et al. 2000) gives it in closed form.
+Contact times: each law's reference (``ContactLaw.collision_time``: closed form for the linear
+laws, ballmill.md section 5, Schwager & Poeschel 2007; 2.9433 xi_max / v for elastic Hertz, a scipy
+solution of the damped Hertz normal ODE otherwise). The scene writes the measured and the
+reference values side by side, and the per-step overlap, normal force and relative normal
+velocity.
 """
 
 import math
@@ -17,8 +18,7 @@ import numpy as np
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.state import disk_or_sphere_mass
 from ..models import Interaction, Material, MaterialTable
-from ..models.contact import linear_collision_time
-from ..models.materials import damping_ratio, effective_moduli, hertz_beta_term, linear_restitution
+from ..models.contact import LAWS
 from .base import (
     CONVENTION_PARAM,
     SOLID_PARAMS,
@@ -30,10 +30,8 @@ from .base import (
 )
 from .driver import Case, Output, Series
 
-HERTZ_TIME_FACTOR = 2.9433  # t_c = 2 (xi_max / v) int_0^1 dx / sqrt(1 - x^(5/2))
-
 PARAMS = (
-    Param("contact_law", "hertz_mindlin", "contact law", choices=("linear_hw", "linear_history", "hertz_mindlin")),
+    Param("contact_law", "hertz_mindlin", "contact law", choices=tuple(LAWS)),
     Param("dim", 3, "2 (disks) or 3 (spheres)", choices=(2, 3)),
     Param("target", "particle", "impact partner", choices=("particle", "wall")),
     Param("integrator", "verlet", "time integrator", choices=("verlet", "gear")),
@@ -56,65 +54,38 @@ PARAMS = (
 def analytic(values):
     """Reference (restitution, contact time) of a head-on impact for the law and convention.
 
-    linear_hw takes the damping rate of Buchholtz et al. 2000, so its restitution is a result:
-    closed form for both conventions. linear_history and hertz_mindlin take a restitution, which
-    a head-on collision returns by construction of their damping (``models.materials``); the contact
-    time is the closed form of the linear oscillator, or the Hertz normal ODE solved by scipy.
+    A law that takes a restitution returns it by construction of its damping
+    (``ContactLaw.row``); for a law that takes a damping rate (Buchholtz et al. 2000) it is a
+    result, in closed form. The contact time is the law's reference (``ContactLaw.collision_time``:
+    the closed form of the linear oscillator, or the Hertz normal ODE solved by scipy).
     """
-    law = values["contact_law"]
+    law = LAWS[values["contact_law"]]
     clipped = values["convention"] == "clipped"
     m = disk_or_sphere_mass(values["radius"], values["density"], values["dim"], values["thickness"])
     m_eff = float(m if values["target"] == "wall" else m / 2)
-    if law in ("linear_hw", "linear_history"):
-        w0 = math.sqrt(values["normal_stiffness"] / m_eff)
-        if law == "linear_hw":
-            beta = values["normal_damping_rate"] / 2.0
-        else:
-            beta = damping_ratio(values["restitution"], values["convention"]) * w0
-        t_c = linear_collision_time(w0, beta, clipped)
-        if law == "linear_hw":
-            return linear_restitution(beta / w0, clipped), t_c
-        return values["restitution"], t_c
-    mat = Material("p", values["density"], values["youngs_modulus"], values["poisson_ratio"])
-    e_star, _ = effective_moduli(mat, mat)
     # Rigid wall of the same material constants, or an identical partner.
     r_eff = values["radius"] if values["target"] == "wall" else values["radius"] / 2
     v = values["speed"] * math.cos(math.radians(values["angle"]))
-    if values["restitution"] == 1.0:
-        xi_max = (15 * m_eff * v * v / (16 * e_star * math.sqrt(r_eff))) ** 0.4
-        return 1.0, HERTZ_TIME_FACTOR * xi_max / v
-    beta_term = hertz_beta_term(values["restitution"], values["convention"])
-    return values["restitution"], hertz_reference(m_eff, r_eff, e_star, beta_term, v, clipped)[1]
+    p = _table(values).pair_params(values["convention"])[0, 0]
+    e = values["restitution"] if "restitution" in law.parameter_names else \
+        law.restitution(p, m_eff, values["convention"])
+    return e, law.collision_time(p, m_eff, r_eff, v, clipped)
 
 
-def hertz_reference(m_eff, r_eff, e_star, beta_term, speed, clip):
-    """Restitution and contact time of the damped Hertz normal ODE (damping beta_term sqrt(S_n
-    m_eff)), solved by scipy at rtol 1e-11 in SI units, the contact ending at zero force
-    (clip) or at zero overlap."""
-    from scipy.integrate import solve_ivp
-
-    def force(xi, xi_dot):
-        xi = max(xi, 0.0)
-        sn = 2.0 * e_star * math.sqrt(r_eff * xi)
-        return (2.0 / 3.0) * sn * xi + beta_term * math.sqrt(sn * m_eff) * xi_dot
-
-    def rhs(_, y):
-        f = force(y[0], y[1])
-        return [y[1], -(max(f, 0.0) if clip else f) / m_eff]
-
-    end = (lambda _, y: force(y[0], y[1])) if clip else (lambda _, y: y[0])
-    end.terminal, end.direction = True, -1
-    # Start just inside contact so the end event does not fire at t = 0.
-    t_guess = 3.0 * (m_eff**2 / (r_eff * e_star**2 * speed)) ** 0.2
-    sol = solve_ivp(rhs, (0.0, 10 * t_guess), [speed * 1e-9 * t_guess, speed], events=end,
-                    rtol=1e-11, atol=1e-16 * speed * t_guess, max_step=t_guess / 2000)
-    y_end = sol.y_events[0][0]
-    return -y_end[1] / speed, float(sol.t_events[0][0])
+def _table(values):
+    mat = Material("particle", values["density"], values["youngs_modulus"], values["poisson_ratio"])
+    inter = Interaction(restitution=values["restitution"], friction=values["friction"],
+                        normal_stiffness=values["normal_stiffness"],
+                        normal_damping_rate=values["normal_damping_rate"],
+                        tangential_damping_rate=values["tangential_damping_rate"])
+    return MaterialTable([mat], {"*": inter}, values["contact_law"])
 
 
 def _check(values):
-    if values["dim"] == 2 and values["contact_law"] == "hertz_mindlin":
-        raise ValueError("dim: hertz_mindlin is a 3D law; use dim = 3 or a linear law")
+    law = LAWS[values["contact_law"]]
+    if values["dim"] not in law.dims:
+        raise ValueError(f"dim: {law.name} is a {law.dims[0]}D law; use dim = {law.dims[0]} or "
+                         "another law")
 
 
 class CollisionCase(Case):
@@ -138,13 +109,7 @@ class CollisionCase(Case):
     def __init__(self, values):
         super().__init__()
         self.values = v = values
-        law = v["contact_law"]
-        mat = Material("particle", v["density"], v["youngs_modulus"], v["poisson_ratio"])
-        inter = Interaction(restitution=v["restitution"], friction=v["friction"],
-                            normal_stiffness=v["normal_stiffness"],
-                            normal_damping_rate=v["normal_damping_rate"],
-                            tangential_damping_rate=v["tangential_damping_rate"])
-        table = MaterialTable([mat], {"*": inter}, law)
+        table = _table(v)
         spec = PhysicsSpec(dim=v["dim"], integrator=v["integrator"],
                            convention=v["convention"], gravity=False,
                            walls=v["target"] == "wall")

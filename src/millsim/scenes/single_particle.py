@@ -62,8 +62,6 @@ from ..models import Interaction, Material, MaterialTable, TavaresModel
 from ..models.breakage import tavares
 from ..models.breakage import tavares_predictions as tv
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
-from ..models.contact import hertz_contact_time
-from ..models.materials import effective_moduli
 from ..util.stats import binomial_interval, bootstrap_interval
 from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
 from .driver import Case, Output
@@ -212,8 +210,8 @@ def build(values):
                      guards=Guards(max_overlap=values["max_overlap"],
                                    v_max=max(100.0, 20.0 * math.sqrt(2.0 * E))),
                      tags={"original": ids, "generation": np.zeros(len(ids), np.int64)})
-    e_star, _ = effective_moduli(ore, st)
-    t_c = hertz_contact_time(m_eff, r_eff, e_star, max(speed, 1e-3))
+    ore_on_steel = sim.pair_params[table.index[ore.name], table.index["steel"]]
+    t_c = float(sim.law.contact_time(ore_on_steel, m_eff, r_eff, max(speed, 1e-3)))
     return Setup(values, mat, steel, share, E, speed, m, sim, x[:n].copy(), t_c, seed)
 
 

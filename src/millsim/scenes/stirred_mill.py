@@ -25,9 +25,7 @@ from scipy.spatial import cKDTree
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..engine.kinematics import CYLINDER_INNER, CYLINDER_OUTER, PLANE
 from ..models import Interaction, Lubrication, Material, MaterialTable
-from ..models.contact import linear_contact_time
 from ..models.lubrication import AUTO_STEP_RATIO, SCHEMES, TOLERANCE, check_lubrication_params
-from ..models.materials import damping_ratio
 from ..util.memory import RECORD_VALUE_BYTES, check_memory
 from ..util.stats import block_mean_ci, mser5
 from .base import (
@@ -309,8 +307,9 @@ def build(values):
                                        values["lubrication_tolerance"]) if wet else None,
                      **periodic)
     m_min = values["density"] * 4 / 3 * math.pi * r_min**3
-    zeta = damping_ratio(values["restitution"], spec.convention)
-    t_c, _ = linear_contact_time(k_n, 0.5 * m_min, 2 * zeta * math.sqrt(k_n / (0.5 * m_min)))
+    bead = table.index["bead"]  # the contact time of the step bounds, of two of the smallest beads
+    t_c = float(table.law.contact_time(sim.pair_params[bead, bead], 0.5 * m_min, 0.5 * r_min,
+                                       max(1.0, g["tip_speed"])))
     g.update(k_n=k_n, t_c=t_c, n_agitator_particles=nd, agitator_particle_radius=disk_r)
     return sim, g
 

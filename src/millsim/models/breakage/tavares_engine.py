@@ -215,9 +215,10 @@ class TavaresModel(ParticleModel):
                                     check_range(f"breakage[{name}].e_min", e_min, 0.0))
 
     def attach(self, sim):
-        if sim.table.contact_law != "hertz_mindlin":
-            raise ValueError("breakage: the Tavares model (Tavares et al. 2021) goes with "
-                             "contact_law 'hertz_mindlin'")
+        if sim.law.elastic != "hertz":
+            raise ValueError("breakage: the Tavares model (Tavares et al. 2021) needs a Hertzian "
+                             f"contact law (its damage is the Hertz strain energy); {sim.law.name!r} "
+                             "is not")
         super().attach(sim)
         table = np.zeros((len(sim.table.materials), 3))
         for k, m in enumerate(sim.table.materials):

@@ -25,7 +25,6 @@ from ...engine.events import room_for
 from ...engine.models import NO_BREAKAGE, ParticleModel, stable_identity
 from ...engine.rng import hash_uniform
 from ...util.validation import check_range
-from ..contact import P_GAMMA_N, P_K_N
 
 RR_TRUNCATION = 0.75  # largest Rosin-Rammler fragment, in parent radii
 _Q_MAX = 1.0 - math.exp(-RR_TRUNCATION)
@@ -77,6 +76,9 @@ def split_disk(center, parent, force_dir, u):
 # breaks, bit 2: j breaks) and the peak force, written when an event ends.
 FMAX, TWIN, XIP = 0, 1, 2
 DECISION, PEAK = 0, 1
+# The twin relief force re-evaluates the law's linear normal force: a law whose parameter row holds
+# the spring k_n and the damping rate gamma_n (force m_eff gamma_n v_n) in these columns.
+P_K_N, P_GAMMA_N = 0, 1
 
 WeibullBundle = namedtuple("WeibullBundle", ["params"])
 
@@ -198,9 +200,10 @@ class WeibullModel(ParticleModel):
         self.seed = int(seed)
 
     def attach(self, sim):
-        if sim.table.contact_law != "linear_hw":
-            raise ValueError("breakage: the Weibull model (Buchholtz et al. 2000) goes with "
-                             "contact_law 'linear_hw'")
+        if (sim.law.column("k_n"), sim.law.column("gamma_n")) != (P_K_N, P_GAMMA_N):
+            raise ValueError("breakage: the Weibull model (Buchholtz et al. 2000) needs a contact law "
+                             f"with a linear spring k_n and damping rate gamma_n; {sim.law.name!r} "
+                             "has none")
         super().attach(sim)
 
     def params(self):
