@@ -30,6 +30,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from millsim.engine import PhysicsSpec, Simulation, SimulationError, StepPolicy
+from millsim.engine.guards import check_contact_resolution
 from millsim.engine.insertion import Pour
 from millsim.models import Interaction, Material, MaterialTable
 
@@ -93,9 +94,9 @@ def test_a_turning_bounded_wall_faster_than_the_step_resolves_stops_the_run(wall
         # building the step loop would cost its compilation for nothing)
         if stops:
             with pytest.raises(SimulationError, match="impacts at"):
-                sim._check_contact_resolution()
+                check_contact_resolution(sim)
         else:
-            sim._check_contact_resolution()
+            check_contact_resolution(sim)
 
 
 # ---- the linear-history law's tangential dashpot ----------------------------------------------

@@ -14,9 +14,10 @@ from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
 
 from millsim.engine.insertion import Pour
-from millsim.engine.kinematics import FRUSTUM, WALL_COLUMNS, wall_contact_bounded
+from millsim.engine.kinematics import FRUSTUM, WALL_COLUMNS
 from millsim.engine.mesh import EDGE_AB, EDGE_AC, EDGE_BC, FACE, closest_on_triangle
 from millsim.engine.neighbours import _cell_index, _cell_range
+from millsim.engine.walls import wall_contact_bounded
 
 from helpers import PourCharge
 

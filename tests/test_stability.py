@@ -154,7 +154,8 @@ def _hertz_elastic_energy(sim):
     counting only overlap beyond the creation reference of progeny. The tangential springs' energy
     is not added: the audit's tangential terms already hold it (they integrate the tangential
     force's whole power)."""
-    from millsim.engine.kinematics import W_MATERIAL, wall_contact
+    from millsim.engine.kinematics import W_MATERIAL
+    from millsim.engine.walls import wall_contact
     from millsim.models.contact import hertz_mindlin as law
 
     p, pp = sim.particles, sim.pair_params

@@ -338,7 +338,7 @@ def test_turning_sheet_drags_along_omega_a_x_r_and_work_is_torque_times_omega(om
     (dict(kind="annulus", point=(0, 0, 0), normal=(0, 0, 1), radius=0.01, inner_radius=0.01,
           material="m"), r"walls\[0\].inner_radius: must be in \[0, radius = 0.01\)"),
     (dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), inner_radius=0.001, material="m"),
-     r"walls\[0\].inner_radius: only an annulus has one"),
+     r"walls\[0\]: unknown keys \[.inner_radius.\] for a plane wall"),
     (dict(kind="frustum", point=(0, 0, 0), axis=(0, 0, 1), start=(0.0, 0.01), material="m"),
      r"walls\[0\]: a frustum needs start and end"),
     (dict(kind="frustum", point=(0, 0, 0), axis=(0, 0, 1), start=(0.0, 0.01), end=(0.02, -0.01),

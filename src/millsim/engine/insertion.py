@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..util.validation import check_range
-from .kinematics import MESH, W_ACTIVE, W_KIND, wall_contact_bounded
+from .kinematics import MESH, W_ACTIVE, W_KIND
+from .walls import wall_contact_bounded
 
 
 @dataclass

@@ -1,26 +1,13 @@
 """Prescribed motion: analytic walls and kinematic rigid bodies made of particles.
 
-Walls are rows of a float table so that one compiled loop serves any mix of them:
+Walls are rows of a float table so that one compiled loop serves any mix of them (each kind, its
+keys, checks and contact function: one entry of the registry in :mod:`millsim.engine.walls`):
 
     [kind, px, py, pz, ax, ay, az, radius, omega, material, active, z0, r0, z1, r1,
      vx, vy, vz, ox, oy, oz]
 
-- ``PLANE``: point p, unit normal a pointing into the domain; its surface turns at ``omega``
-  rad/s about the normal through p (a drum's end wall turning with the shell; 0: static).
-- ``CYLINDER_INNER``: particles inside a cylinder of the given radius, axis through p along a, the
-  surface rotating at ``omega`` rad/s about a (a drum shell).
-- ``CYLINDER_OUTER``: particles outside the cylinder (a shaft), same rotation convention.
-- ``FRUSTUM``: a thin sheet of revolution about the axis through p along a: the segment from
-  (z0, r0) to (z1, r1) in (height along a, distance from the axis), revolved. A flat ring or disk
-  (z0 = z1, a hole of radius r0 >= 0), a truncated cone (a hopper with its orifice), a cylinder
-  shell that ends where the equipment ends (r0 = r1). Touched from either side and at its two rim
-  circles: the nearest point of the surface lies in the particle's meridian half-plane, where it
-  is the nearest point of the segment. ``radius`` holds max(r0, r1) (its fastest point); the
-  sheet turns at ``omega`` about a (an agitator disk).
-
-- ``MESH``: a rigid triangulated solid (engine.mesh): p is its frame's origin, turning at
-  ``omega`` about the axis through p along a; ``radius`` holds the farthest vertex from the axis
-  (its fastest point).
+The kinds (plane, cylinders, frustums and annuli, tori, meshes), their keys and what their
+columns hold: engine.walls and docs/walls.md. ``radius`` holds a turning wall's fastest radius.
 
 ``active`` is 1, or 0 for a wall that has been taken away (e.g. the holder of a bed once the bed
 has settled). Any wall may also translate at the constant velocity v (a piston, a compression
@@ -42,12 +29,13 @@ struck at full speed from rest); 0 means at ``rate`` from t = 0.
 
 import math
 
+import numpy as np
 from numba import njit
 
+from ..util.validation import unit_vector
+
+# codes of the first kinds (the registry of every kind, its names and code: engine.walls)
 PLANE, CYLINDER_INNER, CYLINDER_OUTER, FRUSTUM, MESH = 0, 1, 2, 3, 4
-# user-facing kinds; "annulus" and "cone" are frustums (Simulation._wall_table)
-WALL_KINDS = {"plane": PLANE, "cylinder_inner": CYLINDER_INNER, "cylinder_outer": CYLINDER_OUTER,
-              "annulus": FRUSTUM, "frustum": FRUSTUM, "mesh": MESH}
 WALL_COLUMNS = 21
 # named columns of a wall row
 W_KIND, W_POINT, W_AXIS, W_RADIUS, W_OMEGA, W_MATERIAL, W_ACTIVE = 0, slice(1, 4), slice(4, 7), 7, 8, 9, 10
@@ -90,95 +78,6 @@ def place_meshes(table, time):
 
 
 @njit(inline="always", cache=True)
-def wall_contact(wall, x0, x1, x2, r):
-    """Overlap, unit normal (wall -> particle) and the wall's velocity at the contact point.
-
-    Returns overlap <= 0 when there is no contact.
-    """
-    kind = int(wall[0])
-    p0, p1, p2 = wall[1], wall[2], wall[3]
-    a0, a1, a2 = wall[4], wall[5], wall[6]
-    d0, d1, d2 = x0 - p0, x1 - p1, x2 - p2
-    if kind == PLANE:
-        dist = d0 * a0 + d1 * a1 + d2 * a2
-        om = wall[8]
-        if om == 0.0:
-            return r - dist, a0, a1, a2, 0.0, 0.0, 0.0
-        # omega a x (contact - p): the contact point's offset along a drops out of the product
-        return (r - dist, a0, a1, a2, om * (a1 * d2 - a2 * d1), om * (a2 * d0 - a0 * d2),
-                om * (a0 * d1 - a1 * d0))
-    along = d0 * a0 + d1 * a1 + d2 * a2
-    q0, q1, q2 = d0 - along * a0, d1 - along * a1, d2 - along * a2
-    rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-    if rho == 0.0:
-        return -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    u0, u1, u2 = q0 / rho, q1 / rho, q2 / rho
-    if kind == CYLINDER_INNER:
-        overlap = rho + r - wall[7]
-        n0, n1, n2 = -u0, -u1, -u2
-        contact_radius = wall[7] + 0.5 * overlap
-    else:
-        overlap = wall[7] + r - rho
-        n0, n1, n2 = u0, u1, u2
-        contact_radius = wall[7] - 0.5 * overlap
-    # Velocity omega a x (contact - axis) of the wall's material at the contact point (mid-overlap,
-    # where the torque's lever arm ends too, so that power = torque x omega exactly).
-    om = wall[8] * contact_radius
-    w0 = om * (a1 * u2 - a2 * u1)
-    w1 = om * (a2 * u0 - a0 * u2)
-    w2 = om * (a0 * u1 - a1 * u0)
-    return overlap, n0, n1, n2, w0, w1, w2
-
-
-@njit(inline="always", cache=True)
-def wall_contact_bounded(wall, x0, x1, x2, r):
-    """wall_contact with frustum walls too: compiled only where a run has them
-    (PhysicsSpec.bounded_walls), so that the other runs' wall loop stays as small as it was."""
-    if int(wall[0]) != FRUSTUM:
-        return wall_contact(wall, x0, x1, x2, r)
-    a0, a1, a2 = wall[4], wall[5], wall[6]
-    d0, d1, d2 = x0 - wall[1], x1 - wall[2], x2 - wall[3]
-    along = d0 * a0 + d1 * a1 + d2 * a2
-    q0, q1, q2 = d0 - along * a0, d1 - along * a1, d2 - along * a2
-    rho = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-    return _frustum_contact(wall, along, q0, q1, q2, rho, r)
-
-
-@njit(inline="always", cache=True)
-def _frustum_contact(wall, h, q0, q1, q2, rho, r):
-    """wall_contact of a frustum: the particle's height h along the axis and in-plane offset q
-    (length rho) from it."""
-    a0, a1, a2 = wall[4], wall[5], wall[6]
-    if rho > 0.0:
-        u0, u1, u2 = q0 / rho, q1 / rho, q2 / rho
-    else:  # on the axis: every meridian is as near; take any
-        if abs(a0) < 0.9:
-            u0, u1, u2 = 0.0, a2, -a1
-        else:
-            u0, u1, u2 = -a2, 0.0, a0
-        norm = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-        u0, u1, u2 = u0 / norm, u1 / norm, u2 / norm
-    # nearest point (zc, rc) of the segment to (h, rho) in the meridian half-plane
-    z0, r0 = wall[11], wall[12]
-    dz, dr = wall[13] - z0, wall[14] - r0
-    t = ((h - z0) * dz + (rho - r0) * dr) / (dz * dz + dr * dr)
-    t = min(max(t, 0.0), 1.0)
-    zc, rc = z0 + t * dz, r0 + t * dr
-    ez, er = h - zc, rho - rc
-    dist = math.sqrt(ez * ez + er * er)
-    if dist > 0.0:
-        ez, er = ez / dist, er / dist
-    else:  # centre on the sheet: push along the sheet's normal
-        ln = math.sqrt(dz * dz + dr * dr)
-        ez, er = -dr / ln, dz / ln
-    # Velocity omega a x (contact - axis) at the contact point, mid-overlap (where the loop's
-    # torque lever arm ends, so that power = torque x omega exactly): at radius rc - er xi / 2.
-    om = wall[8] * (rc - 0.5 * (r - dist) * er)
-    return (r - dist, ez * a0 + er * u0, ez * a1 + er * u1, ez * a2 + er * u2,
-            om * (a1 * u2 - a2 * u1), om * (a2 * u0 - a0 * u2), om * (a0 * u1 - a1 * u0))
-
-
-@njit(inline="always", cache=True)
 def body_motion(body, t):
     """Angle (rad) or distance (m) travelled since t = 0, and the rate at t."""
     rate, ramp = body[7], body[8]
@@ -213,3 +112,33 @@ def body_pose(body, x0, t):
     y2 = r2 * ct + k2 * st + a2 * ad * (1.0 - ct)
     return (c0 + y0, c1 + y1, c2 + y2,
             rate * (a1 * y2 - a2 * y1), rate * (a2 * y0 - a0 * y2), rate * (a0 * y1 - a1 * y0), rate)
+
+
+def body_table(spec, bodies):
+    """The body table of the declarations ``bodies`` (list of dicts, Simulation)."""
+    table = np.zeros((len(bodies), BODY_COLUMNS))
+    for k, b in enumerate(bodies):
+        kind = b.get("kind")
+        if kind not in BODY_KINDS:
+            raise ValueError(f"bodies[{k}].kind: must be one of {sorted(BODY_KINDS)}, got {kind!r}")
+        table[k, 0] = BODY_KINDS[kind]
+        table[k, 1:4] = np.asarray(b.get("center", (0, 0, 0)), dtype=float)
+        table[k, B_AXIS] = unit_vector(f"bodies[{k}].axis", b.get("axis", (0, 0, 1)))
+        table[k, B_RATE] = float(b.get("rate", 0.0))
+        ramp = float(b.get("ramp", 0.0))
+        if not ramp >= 0.0 or not math.isfinite(ramp):
+            raise ValueError(f"bodies[{k}].ramp: must be a finite time >= 0 s, got {ramp!r}")
+        table[k, B_RAMP] = ramp
+    if len(bodies) and not spec.bodies:
+        raise ValueError("bodies: given but spec.bodies is false")
+    return table
+
+
+def __getattr__(name):
+    """The wall contact dispatchers moved to engine.walls; the loop still imports them from here
+    (until its imports name engine.walls)."""
+    if name in ("wall_contact", "wall_contact_bounded"):
+        from . import walls
+
+        return getattr(walls, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

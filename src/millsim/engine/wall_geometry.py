@@ -206,6 +206,8 @@ class WallTessellator:
             s0, s1 = (max(low) if low else s0), (min(high) if high else s1)
             r = row[W_RADIUS]
             return _band(point, axis, s0, r, s1, r, self.segments)
+        if kind != PLANE:
+            return None  # a kind not drawn yet (docs/walls.md, "Adding a kind")
         # a plane: the disk of a cylinder it crosses, else a rectangle over the extent
         for other in table:
             if (other[W_KIND] in (CYLINDER_INNER, CYLINDER_OUTER) and other[W_ACTIVE] != 0.0

@@ -2,6 +2,8 @@
 
 import math
 
+import numpy as np
+
 
 def check_range(key, value, lo=None, hi=None, lo_open=False, hi_open=False):
     """Raise ValueError naming ``key`` unless lo (<|<=) value (<|<=) hi."""
@@ -21,3 +23,12 @@ def check_range(key, value, lo=None, hi=None, lo_open=False, hi_open=False):
         hi_s = "inf" if hi is None else f"{hi:g}"
         raise ValueError(f"{key}: {value:g} is outside the allowed range {left}{lo_s}, {hi_s}{right}")
     return value
+
+
+def unit_vector(key, v):
+    """``v`` (3 numbers) scaled to unit length; ValueError naming ``key`` for a zero vector."""
+    v = np.asarray(v, dtype=float).reshape(3)
+    norm = np.linalg.norm(v)
+    if norm == 0:
+        raise ValueError(f"{key}: must be a non-zero vector")
+    return v / norm

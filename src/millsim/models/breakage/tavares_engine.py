@@ -21,8 +21,8 @@ import numpy as np
 from numba import njit
 
 from ...engine.events import room_for
-from ...engine.kinematics import wall_contact
 from ...engine.models import NO_BREAKAGE, ParticleModel, stable_identity
+from ...engine.walls import wall_contact
 from ...util.validation import check_range
 from .damage import damage_fraction
 
