@@ -44,7 +44,7 @@ def timed_parts(parts, spec, layout, clock):
     import numpy as np
     from numba import njit, prange
 
-    from millsim.engine import loop as L
+    from millsim.engine.loop import runner as L
 
     pair_block, particle_block = parts.pair_block, parts.particle_block
     start_block, reductions, near_walls_block = (parts.start_block, parts.reductions,
@@ -107,7 +107,7 @@ def timed_parts(parts, spec, layout, clock):
         if begin:
             start_pass(n_blocks, t + (k0 + 1) * dt, dt, P, B)
             t0 = tick("start", t0)
-            if L._moved_beyond(P.x, P.x_ref, half_skin2):
+            if L.moved_beyond(P.x, P.x_ref, half_skin2):
                 rebuild[0] = 1
                 return step
         while step < n_steps:
@@ -137,8 +137,8 @@ def timed_parts(parts, spec, layout, clock):
 def timed_rebuild(clock):
     """engine.loop's rebuild with build_verlet's serial front (bounding box, size levels, cell
     binning) timed apart: they are run again on the same positions first (pure functions)."""
-    from millsim.engine import loop as L
     from millsim.engine import neighbours as nb
+    from millsim.engine.loop import runner as L
 
     untimed = nb.rebuilt_contacts
 
@@ -166,7 +166,7 @@ def timed_rebuild(clock):
 
 
 def timed_scratch(clock):
-    from millsim.engine import loop as L
+    from millsim.engine.loop import runner as L
 
     untimed = L.ChunkRunner._scratch
 
@@ -199,8 +199,8 @@ def usage():
 def run_rows(physics, n, steps, thread_counts):
     import numba
 
-    from millsim.engine import loop as L
     from millsim.engine import simulation as engine_simulation
+    from millsim.engine.loop import runner as L
 
     rebuild_s = scaling.time_list_rebuilds()
 

@@ -166,7 +166,7 @@ def time_list_rebuilds():
     rebuild the chunk runner calls is wrapped in a timer (reset the element to start a window)."""
     import time
 
-    from millsim.engine import loop as engine_loop
+    from millsim.engine.loop import runner as engine_loop
 
     rebuild_s = [0.0]
     untimed_rebuild = engine_loop.rebuilt_contacts

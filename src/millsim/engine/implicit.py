@@ -12,7 +12,7 @@ form dissipates
 so its generalised force is -J^T K J V with J these 1 + 3 + 3 rows (the two tangential ones are
 vectors in the tangent plane). A wall is the same row with the wall as partner j (its velocity and
 spin at the sphere, infinite mass, b_j = -b_i). The loop integrates the resistance over each kick
-of the leapfrog (``_lub_solver`` in loop.py), v- -> v+ of length tau, with v_f = v- + tau a the
+of the leapfrog (``lub_solver`` in implicit_solve.py), v- -> v+ of length tau, with v_f = v- + tau a the
 velocity the other forces alone would give: each row's impulse is
 lam = tau k (theta J v+ + (1 - theta) J v-), theta fitted to the row's own relaxation
 (``fitted_theta``), so

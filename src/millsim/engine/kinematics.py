@@ -43,11 +43,14 @@ W_SEGMENT = slice(11, 15)  # frustum: z0, r0, z1, r1
 # mesh: cos and sin of its angle now, the angle and time of the last change of omega
 W_COS, W_SIN, W_ANGLE_REF, W_TIME_REF = 11, 12, 13, 14
 W_VELOCITY, W_ORIGIN = slice(15, 18), slice(18, 21)  # translation: point = origin + velocity t
+# the first column of the point, axis and velocity, for compiled code that reads them one by one
+W_PX, W_AX, W_VX = 1, 4, 15
 
 ROTATE, TRANSLATE = 0, 1
 BODY_KINDS = {"rotate": ROTATE, "translate": TRANSLATE}
 BODY_COLUMNS = 9
 B_KIND, B_CENTER, B_AXIS, B_RATE, B_RAMP = 0, slice(1, 4), slice(4, 7), 7, 8
+B_CX, B_AX = 1, 4  # the first column of the centre and of the axis
 
 
 @njit(cache=True)
