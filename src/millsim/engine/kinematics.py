@@ -43,8 +43,8 @@ W_SEGMENT = slice(11, 15)  # frustum: z0, r0, z1, r1
 # mesh: cos and sin of its angle now, the angle and time of the last change of omega
 W_COS, W_SIN, W_ANGLE_REF, W_TIME_REF = 11, 12, 13, 14
 W_VELOCITY, W_ORIGIN = slice(15, 18), slice(18, 21)  # translation: point = origin + velocity t
-# the first column of the point, axis and velocity, for compiled code that reads them one by one
-W_PX, W_AX, W_VX = 1, 4, 15
+# the first column of the point, axis, velocity and origin, for compiled code reading them one by one
+W_PX, W_AX, W_VX, W_OX = 1, 4, 15, 18
 
 ROTATE, TRANSLATE = 0, 1
 BODY_KINDS = {"rotate": ROTATE, "translate": TRANSLATE}
@@ -58,32 +58,32 @@ def place_walls(table, time):
     """Every wall's point at ``time``: origin + velocity time (translating walls)."""
     for iw in range(table.shape[0]):
         for a in range(3):
-            table[iw, 1 + a] = table[iw, 18 + a] + table[iw, 15 + a] * time
+            table[iw, W_PX + a] = table[iw, W_OX + a] + table[iw, W_VX + a] * time
 
 
 @njit(inline="always", cache=True)
 def mesh_angle(wall, time):
     """A mesh's angle about its axis at ``time`` (from the angle and time of the last change of
     omega)."""
-    return wall[13] + wall[8] * (time - wall[14])
+    return wall[W_ANGLE_REF] + wall[W_OMEGA] * (time - wall[W_TIME_REF])
 
 
 @njit(cache=True)
 def place_meshes(table, time):
     """Every mesh's point and angle at ``time`` (the loop's contacts read cos and sin)."""
     for iw in range(table.shape[0]):
-        if int(table[iw, 0]) == MESH:
+        if int(table[iw, W_KIND]) == MESH:
             th = mesh_angle(table[iw], time)
-            table[iw, 11] = math.cos(th)
-            table[iw, 12] = math.sin(th)
+            table[iw, W_COS] = math.cos(th)
+            table[iw, W_SIN] = math.sin(th)
             for a in range(3):
-                table[iw, 1 + a] = table[iw, 18 + a] + table[iw, 15 + a] * time
+                table[iw, W_PX + a] = table[iw, W_OX + a] + table[iw, W_VX + a] * time
 
 
 @njit(inline="always", cache=True)
 def body_motion(body, t):
     """Angle (rad) or distance (m) travelled since t = 0, and the rate at t."""
-    rate, ramp = body[7], body[8]
+    rate, ramp = body[B_RATE], body[B_RAMP]
     if ramp > 0.0:
         if t < ramp:
             return 0.5 * rate * t * t / ramp, rate * t / ramp
@@ -95,9 +95,9 @@ def body_motion(body, t):
 def body_pose(body, x0, t):
     """Position and velocity at time t of a body point whose position at t = 0 was x0, and the
     body's rate at t."""
-    kind = int(body[0])
-    c0, c1, c2 = body[1], body[2], body[3]
-    a0, a1, a2 = body[4], body[5], body[6]
+    kind = int(body[B_KIND])
+    c0, c1, c2 = body[B_CX], body[B_CX + 1], body[B_CX + 2]
+    a0, a1, a2 = body[B_AX], body[B_AX + 1], body[B_AX + 2]
     th, rate = body_motion(body, t)
     if kind == TRANSLATE:
         return (x0[0] + a0 * th, x0[1] + a1 * th, x0[2] + a2 * th,
@@ -124,7 +124,7 @@ def body_table(spec, bodies):
         kind = b.get("kind")
         if kind not in BODY_KINDS:
             raise ValueError(f"bodies[{k}].kind: must be one of {sorted(BODY_KINDS)}, got {kind!r}")
-        table[k, 0] = BODY_KINDS[kind]
+        table[k, B_KIND] = BODY_KINDS[kind]
         table[k, 1:4] = np.asarray(b.get("center", (0, 0, 0)), dtype=float)
         table[k, B_AXIS] = unit_vector(f"bodies[{k}].axis", b.get("axis", (0, 0, 1)))
         table[k, B_RATE] = float(b.get("rate", 0.0))
@@ -136,12 +136,3 @@ def body_table(spec, bodies):
         raise ValueError("bodies: given but spec.bodies is false")
     return table
 
-
-def __getattr__(name):
-    """The wall contact dispatchers moved to engine.walls; the loop still imports them from here
-    (until its imports name engine.walls)."""
-    if name in ("wall_contact", "wall_contact_bounded"):
-        from . import walls
-
-        return getattr(walls, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

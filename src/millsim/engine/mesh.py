@@ -36,7 +36,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .kinematics import MESH, mesh_angle
+from .kinematics import MESH, W_ACTIVE, W_AX, W_KIND, W_OMEGA, W_OX, W_RADIUS, W_VX, mesh_angle
 from .state import MESH_FIELDS
 
 MESH_SLOTS = 6
@@ -146,9 +146,9 @@ def rotate(c, s, a0, a1, a2, d0, d1, d2):
 def to_frame(wall, time, x0, x1, x2):
     """A world point in a mesh's frame at ``time``: taken back by its translation and angle."""
     th = mesh_angle(wall, time)
-    return rotate(math.cos(th), -math.sin(th), wall[4], wall[5], wall[6],
-                  x0 - wall[18] - wall[15] * time, x1 - wall[19] - wall[16] * time,
-                  x2 - wall[20] - wall[17] * time)
+    return rotate(math.cos(th), -math.sin(th), wall[W_AX], wall[W_AX + 1], wall[W_AX + 2],
+                  x0 - wall[W_OX] - wall[W_VX] * time, x1 - wall[W_OX + 1] - wall[W_VX + 1] * time,
+                  x2 - wall[W_OX + 2] - wall[W_VX + 2] * time)
 
 
 @njit(cache=True)
@@ -318,7 +318,7 @@ def rebuilt_mesh_candidates(M, table, x, radius, body, margin, time):
             reach = radius[i] + margin
             for iw in range(table.shape[0]):
                 wall = table[iw]
-                if int(wall[0]) != MESH or wall[10] == 0.0:  # not an active mesh
+                if int(wall[W_KIND]) != MESH or wall[W_ACTIVE] == 0.0:  # not an active mesh
                     continue
                 y0, y1, y2 = to_frame(wall, time, x[i, 0], x[i, 1], x[i, 2])
                 g = M.mesh_grid[iw]
@@ -380,9 +380,9 @@ def mesh_travel(W, time):
     speed = 0.0
     for iw in range(W.table.shape[0]):
         wall = W.table[iw]
-        if int(wall[0]) == MESH and wall[10] != 0.0:
-            speed = max(speed, abs(wall[8]) * wall[7]
-                        + math.sqrt(wall[15] ** 2 + wall[16] ** 2 + wall[17] ** 2))
+        if int(wall[W_KIND]) == MESH and wall[W_ACTIVE] != 0.0:
+            speed = max(speed, abs(wall[W_OMEGA]) * wall[W_RADIUS]
+                        + math.sqrt(wall[W_VX] ** 2 + wall[W_VX + 1] ** 2 + wall[W_VX + 2] ** 2))
     if speed == 0.0:
         return 0.0
     return speed * (time - W.mesh_built[0])

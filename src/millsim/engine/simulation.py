@@ -173,12 +173,7 @@ class Simulation:
         if self._mesh_geometry and (fluid is not None or breakage is not None):
             raise ValueError("walls: mesh walls are dry and without breakage for now (no "
                              "lubrication or progeny reference state at a triangle)")
-        self.layout = Layout(self.law.spring_columns,
-                             len(breakage.contact_columns) if breakage else 0,
-                             len(breakage.wall_columns) if breakage else 0,
-                             len(breakage.slot_columns) if breakage else 0,
-                             fluid is not None, spec.energy_audit,
-                             fluid is not None and fluid.implicit)
+        self.layout = Layout.of(spec, self.law, breakage, fluid)
         # lubrication reaches h_max beyond contact: the neighbour list must hold those pairs
         self.reach = fluid.reach(float(np.max(radius))) if fluid else 0.0
         self.tags = {}

@@ -38,6 +38,7 @@ from numba import njit
 
 from ..engine.implicit import RW_VJ, row_absent, row_write
 from ..engine.jit_options import FAST
+from ..engine.kinematics import W_AX, W_OMEGA, W_PX
 from ..engine.models import FluidKernels, ParticleModel, stable_identity
 from ..engine.timestep import StepBound, TimeStepError
 
@@ -516,25 +517,25 @@ def _wall_fluid(fp, wall, x, v, w, i, ri, n0, n1, n2, xi):
     puts in)."""
     if not -xi < fp[H_MAX] * 2.0 * ri:
         return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    om = wall[8]
-    cp0 = x[i, 0] - wall[1]
-    cp1 = x[i, 1] - wall[2]
-    cp2 = x[i, 2] - wall[3]
+    om = wall[W_OMEGA]
+    cp0 = x[i, 0] - wall[W_PX]
+    cp1 = x[i, 1] - wall[W_PX + 1]
+    cp2 = x[i, 2] - wall[W_PX + 2]
     # the wall's rigid velocity at the sphere's centre
-    uc0 = om * (wall[5] * cp2 - wall[6] * cp1)
-    uc1 = om * (wall[6] * cp0 - wall[4] * cp2)
-    uc2 = om * (wall[4] * cp1 - wall[5] * cp0)
+    uc0 = om * (wall[W_AX + 1] * cp2 - wall[W_AX + 2] * cp1)
+    uc1 = om * (wall[W_AX + 2] * cp0 - wall[W_AX] * cp2)
+    uc2 = om * (wall[W_AX] * cp1 - wall[W_AX + 1] * cp0)
     # wall_force_torque subtracts a (omega x n) from the slip it is given to reach the centre:
     # hand it the slip at the surface
     g0, g1, g2, c0, c1, c2, Dn, Dt = wall_force_torque(
         ri, n0, n1, n2, -xi,
-        v[i, 0] - uc0 + ri * om * (wall[5] * n2 - wall[6] * n1),
-        v[i, 1] - uc1 + ri * om * (wall[6] * n0 - wall[4] * n2),
-        v[i, 2] - uc2 + ri * om * (wall[4] * n1 - wall[5] * n0),
-        w[i, 0], w[i, 1], w[i, 2], om * wall[4], om * wall[5], om * wall[6],
+        v[i, 0] - uc0 + ri * om * (wall[W_AX + 1] * n2 - wall[W_AX + 2] * n1),
+        v[i, 1] - uc1 + ri * om * (wall[W_AX + 2] * n0 - wall[W_AX] * n2),
+        v[i, 2] - uc2 + ri * om * (wall[W_AX] * n1 - wall[W_AX + 1] * n0),
+        w[i, 0], w[i, 1], w[i, 2], om * wall[W_AX], om * wall[W_AX + 1], om * wall[W_AX + 2],
         fp[H_MIN] * 2.0 * ri, fp[ETA])
     # power = F . (wall velocity at the centre) + couple . wall spin
-    power = g0 * uc0 + g1 * uc1 + g2 * uc2 + om * (c0 * wall[4] + c1 * wall[5] + c2 * wall[6])
+    power = g0 * uc0 + g1 * uc1 + g2 * uc2 + om * (c0 * wall[W_AX] + c1 * wall[W_AX + 1] + c2 * wall[W_AX + 2])
     return True, g0, g1, g2, c0, c1, c2, Dn, Dt, cp0, cp1, cp2, power
 
 
@@ -560,16 +561,16 @@ def _wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):
     if not (-xi < fp[H_MAX] * 2.0 * ri and fp[ETA] > 0.0):
         row_absent(rec)
         return
-    om = wall[8]
-    cp0 = x[i, 0] - wall[1]
-    cp1 = x[i, 1] - wall[2]
-    cp2 = x[i, 2] - wall[3]
+    om = wall[W_OMEGA]
+    cp0 = x[i, 0] - wall[W_PX]
+    cp1 = x[i, 1] - wall[W_PX + 1]
+    cp2 = x[i, 2] - wall[W_PX + 2]
     kn, ks, kr, b = wall_rows(ri, -xi, fp[H_MIN] * 2.0 * ri, fp[ETA])
     row_write(rec, n0, n1, n2, kn, ks, kr, b, -b)
-    rec[RW_VJ] = om * (wall[5] * cp2 - wall[6] * cp1)
-    rec[RW_VJ + 1] = om * (wall[6] * cp0 - wall[4] * cp2)
-    rec[RW_VJ + 2] = om * (wall[4] * cp1 - wall[5] * cp0)
-    rec[RW_VJ + 3], rec[RW_VJ + 4], rec[RW_VJ + 5] = om * wall[4], om * wall[5], om * wall[6]
+    rec[RW_VJ] = om * (wall[W_AX + 1] * cp2 - wall[W_AX + 2] * cp1)
+    rec[RW_VJ + 1] = om * (wall[W_AX + 2] * cp0 - wall[W_AX] * cp2)
+    rec[RW_VJ + 2] = om * (wall[W_AX] * cp1 - wall[W_AX + 1] * cp0)
+    rec[RW_VJ + 3], rec[RW_VJ + 4], rec[RW_VJ + 5] = om * wall[W_AX], om * wall[W_AX + 1], om * wall[W_AX + 2]
 
 
 def _no_wall_rows(fp, wall, x, i, ri, n0, n1, n2, xi, rec):

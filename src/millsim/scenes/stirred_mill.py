@@ -23,7 +23,15 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..engine import Guards, PhysicsSpec, Simulation
-from ..engine.kinematics import CYLINDER_INNER, CYLINDER_OUTER, PLANE
+from ..engine.kinematics import (
+    CYLINDER_INNER,
+    CYLINDER_OUTER,
+    PLANE,
+    W_AXIS,
+    W_KIND,
+    W_POINT,
+    W_RADIUS,
+)
 from ..models import Interaction, Lubrication, Material, MaterialTable
 from ..models.lubrication import AUTO_STEP_RATIO, SCHEMES, TOLERANCE, check_lubrication_params
 from ..util.memory import RECORD_VALUE_BYTES, check_memory
@@ -332,14 +340,14 @@ def elastic_energy(sim, k_n, k_t):
     p = sim.particles
     free = sim.free
     for wall in sim.walls:
-        d = p.x[free] - wall[1:4]
+        d = p.x[free] - wall[W_POINT]
         r = p.radius[free]
-        if int(wall[0]) == PLANE:
-            xi = r - d @ wall[4:7]
+        if int(wall[W_KIND]) == PLANE:
+            xi = r - d @ wall[W_AXIS]
         else:
-            rho = np.linalg.norm(d - np.outer(d @ wall[4:7], wall[4:7]), axis=1)
-            xi = rho + r - wall[7] if int(wall[0]) == CYLINDER_INNER else wall[7] + r - rho
-            assert int(wall[0]) in (CYLINDER_INNER, CYLINDER_OUTER)
+            rho = np.linalg.norm(d - np.outer(d @ wall[W_AXIS], wall[W_AXIS]), axis=1)
+            xi = rho + r - wall[W_RADIUS] if int(wall[W_KIND]) == CYLINDER_INNER else wall[W_RADIUS] + r - rho
+            assert int(wall[W_KIND]) in (CYLINDER_INNER, CYLINDER_OUTER)
         xi = xi[xi > 0]
         normal += 0.5 * k_n * float((xi**2).sum())
     return normal, tangential

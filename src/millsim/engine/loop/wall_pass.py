@@ -11,7 +11,6 @@ from numba import njit
 from ..implicit import row_absent
 from ..jit_options import FAST
 from ..kinematics import (
-    CYLINDER_OUTER,
     MESH,
     W_ACTIVE,
     W_AX,
@@ -22,10 +21,9 @@ from ..kinematics import (
     W_PX,
     W_SIN,
     W_VX,
-    wall_contact,
-    wall_contact_bounded,
 )
 from ..mesh import MESH_SLOTS, SAME_CONTACT_COS, TAG_COLUMNS, owns, rotate, triangle_contact
+from ..walls import SKIP_WHEN_FAR, wall_contact, wall_contact_bounded
 from .layout import BLOCK, ERR_MESH_SLOTS, ERR_OVERLAP
 
 
@@ -302,7 +300,7 @@ def near_walls_kernel(spec):
                 kind = int(wall[W_KIND])
                 if wall[W_ACTIVE] == 0.0 or kind == MESH:  # disabled; meshes have their candidates
                     continue
-                static = kind <= CYLINDER_OUTER and not (
+                static = SKIP_WHEN_FAR[kind] and not (
                     TRANSLATING and (wall[W_VX] != 0.0 or wall[W_VX + 1] != 0.0
                                      or wall[W_VX + 2] != 0.0))
                 if static:
