@@ -4,7 +4,8 @@
 
 Every ``case.nc`` under OLD_DIR is paired with the same relative path under NEW_DIR. Data
 variables and coordinates are compared exactly (NaN equal to NaN); provenance attributes that
-change with every run (wall time, creation time, code hash) are ignored. Prints one line per case
+change with every run (wall time, creation time, code hash) and the variables that time the
+machine (``WALL_CLOCK``) are ignored. Prints one line per case
 (identical, or the variables that differ with their largest relative difference) and exits 1 when
 any case differs or is missing.
 """
@@ -16,11 +17,15 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+# data variables that measure the machine, not the physics (the packing scene's timed window)
+WALL_CLOCK = ("particle_steps_per_second", "timed_wall_time")
+
 
 def differences(a: xr.Dataset, b: xr.Dataset):
-    """{name: largest relative difference, or a reason} for variables that are not identical."""
+    """{name: largest relative difference, or a reason} for variables that are not identical
+    (the wall-clock measurements left out)."""
     out = {}
-    names = sorted(set(a.variables) | set(b.variables))
+    names = sorted((set(a.variables) | set(b.variables)) - set(WALL_CLOCK))
     for name in names:
         if name not in a.variables or name not in b.variables:
             out[name] = "only in " + ("new" if name not in a.variables else "old")
