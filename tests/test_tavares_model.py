@@ -12,6 +12,7 @@ import pytest
 from scipy import integrate, special, stats
 
 from millsim.models.breakage import tavares as tv
+from millsim.models.breakage import tavares_materials
 from millsim.models.breakage.tavares_predictions import (
     TABLE2_COUNTS,
     TABLE2_DUMMY,
@@ -60,7 +61,7 @@ def test_materials_from_paper_tables(mats):
 
 
 def test_load_errors_name_key_and_file(tmp_path):
-    good = (tv._resolve("config/materials.yaml")).read_text()
+    good = (tavares_materials._resolve("config/materials.yaml")).read_text()
     bad = tmp_path / "m.yaml"
     bad.write_text(good.replace("    sigma: 0.799", "    sigma: -0.799"))
     with pytest.raises(ValueError, match=r"m\.yaml.*copper_ore\.sigma.*outside"):
@@ -88,7 +89,7 @@ def test_load_errors_name_key_and_file(tmp_path):
 def test_bad_materials_file_stops_the_study_before_any_job(tmp_path, monkeypatch):
     from millsim.scenes.base import get_scene
 
-    good = (tv._resolve("config/materials.yaml")).read_text()
+    good = (tavares_materials._resolve("config/materials.yaml")).read_text()
     (tmp_path / "config").mkdir()
     (tmp_path / "config" / "materials.yaml").write_text(good.replace("    sigma: 0.799", "    sigma: 0"))
     monkeypatch.chdir(tmp_path)
@@ -98,7 +99,7 @@ def test_bad_materials_file_stops_the_study_before_any_job(tmp_path, monkeypatch
 
 
 def test_kwh_per_t_is_converted(tmp_path):
-    text = tv._resolve("config/materials.yaml").read_text()
+    text = tavares_materials._resolve("config/materials.yaml").read_text()
     f = tmp_path / "m.yaml"
     f.write_text(text.replace("E_inf: {J_per_kg: 213.5}", "E_inf: {kWh_per_t: 0.05}"))
     assert tv.load_materials(f)["copper_ore"].E_inf == pytest.approx(180.0)
