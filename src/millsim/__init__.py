@@ -18,7 +18,7 @@ LAYERS = (
     ("engine", ("engine",)),
     ("models", ("models",)),
     ("scenes", ("scenes",)),
-    ("studies", ("analysis", "plots", "cli", "workflow")),
+    ("studies", ("analysis", "plots", "cli", "cli_analyse", "workflow")),
 )
 # What decides the numbers in a case file: everything a scene can import, i.e. every layer below
 # the studies. A change there re-runs cached cases; plotting, the command line and the analysis

@@ -236,7 +236,7 @@ def cmd_plot(args):
     return 0
 
 
-# ---- millsim analyse STUDY STAGE ----------------------------------------------------------------
+# ---- JSON and CSV outputs (also of millsim analyse: cli_analyse.py) -----------------------------
 
 def _write_json(path, obj):
     import json
@@ -268,117 +268,6 @@ def _read_json(path, *keys):
     if missing:
         raise ValueError(f"{path}: missing {missing}; not the choice file of the stage before")
     return obj
-
-
-def cmd_accuracy_collect(args):
-    from .analysis import accuracy
-
-    _check_out(args.out, args.cases)
-    table = accuracy.collect(args.cases, args.name, args.series, args.ladder)
-    _write_csv(args.out, table)
-    print(f"{args.name}/{args.series}: {table['path'].nunique()} cases, "
-          f"{table['observable'].nunique()} observables")
-
-
-def cmd_accuracy_aggregate(args):
-    from .analysis import accuracy
-    from .io import atomic_target, write_netcdf
-
-    _check_out(args.out, args.tables, ".nc")
-    if args.summary:
-        _check_out(args.summary, args.tables, key="--summary")
-    _distinct({"--out": args.out, "--summary": args.summary})
-    links = {tuple(k.split("/", 1)): v for k, v in _parse_sets(args.reference, "--reference").items()}
-    decide = {k: v.split(",") for k, v in _parse_sets(args.decide, "--decide").items()}
-    methods = _parse_sets(args.method, "--method")
-    cases = accuracy.read_tables(args.tables)
-    ds, text = accuracy.study(cases, args.tolerance, links, methods, decide, args.limit_fraction,
-                              args.config_json)
-    write_netcdf(args.out, ds)
-    if args.summary:
-        with atomic_target(args.summary) as tmp:
-            tmp.write_text(text)
-    print(text)
-
-
-def cmd_accuracy_summary(args):
-    from .analysis import accuracy
-    from .io import read_case
-
-    ds = read_case(args.input)
-    if "point_name" not in ds.variables:
-        raise ValueError(f"{args.input}: not an accuracy aggregate (`millsim analyse accuracy "
-                         "aggregate` writes one)")
-    print(accuracy.summary_markdown(accuracy.points_frame(ds, "point"),
-                                    accuracy.points_frame(ds, "choice")))
-
-
-def cmd_stirred_friction(args):
-    from .analysis import stirred_mill as sm
-
-    inputs = [*args.cases, args.reference]
-    outputs = {"--table": args.table, "--summary": args.summary, "--choice": args.choice}
-    for key, out in outputs.items():
-        _check_out(out, inputs, key=key)
-    _distinct(outputs)
-    table, summary, choice = sm.calibrate_friction(sm.case_table(args.cases),
-                                                   sm.read_reference(args.reference))
-    _write_csv(args.table, table)
-    _write_csv(args.summary, summary)
-    _write_json(args.choice, choice)
-    print(f"stage 1: friction = {choice['friction']:g} (refined {choice['friction_refined']:.4g})")
-
-
-def cmd_stirred_viscosity(args):
-    from .analysis import stirred_mill as sm
-
-    inputs = [*args.cases, args.reference, args.friction]
-    outputs = {"--table": args.table, "--choice": args.choice}
-    for key, out in outputs.items():
-        _check_out(out, inputs, key=key)
-    _distinct(outputs)
-    friction = _read_json(args.friction, "friction")["friction"]
-    cases = sm.case_table(args.cases)
-    table, choice = sm.calibrate_viscosity(cases, sm.read_reference(args.reference), friction,
-                                           args.rpm)
-    _write_csv(args.table, table)
-    _write_json(args.choice, dict(friction=friction, rpm=args.rpm, fluids=choice,
-                                  replicates=sm.replicate_summary(cases)))
-    for fluid, c in choice.items():
-        print(f"stage 2: {fluid}: eta_sim = {c['eta_sim']:g} Pa s "
-              f"(refined {c['eta_sim_refined']:.4g})")
-
-
-def cmd_stirred_predict(args):
-    from .analysis import stirred_mill as sm
-
-    _check_out(args.table, [*args.cases, args.reference, args.viscosity], key="--table")
-    visc = _read_json(args.viscosity, "friction", "fluids")
-    etas = {f: c["eta_sim"] for f, c in visc["fluids"].items()}
-    table = sm.predict(sm.case_table(args.cases), sm.read_reference(args.reference),
-                       visc["friction"], etas)
-    _write_csv(args.table, table)
-
-
-def cmd_tavares_aggregate(args):
-    from .analysis import tavares_verification as tv
-    from .io import write_netcdf
-
-    _check_out(args.out, args.cases, ".nc")
-    ds = tv.aggregate(args.cases)
-    write_netcdf(args.out, ds)
-    print("\n".join(tv.summary(ds)))
-
-
-def cmd_tavares_summary(args):
-    from .analysis import tavares_verification as tv
-    from .io import read_case
-
-    ds = read_case(args.input)
-    if not any(key.startswith("pass_rule_") for key in ds.attrs):
-        raise ValueError(f"{args.input}: not a Tavares verification aggregate (`millsim analyse "
-                         "tavares aggregate` writes one)")
-    print("\n".join(tv.summary(ds)))
 
 
 def cmd_report(args):
@@ -421,74 +310,6 @@ def cmd_evidence(args):
     print("\n".join(evidence.lines(result)))
 
 
-def _analyse_parser(sub):
-    """``millsim analyse STUDY STAGE``: the analyses over case files (millsim.analysis)."""
-    analyse = sub.add_parser("analyse", help="analyse a study's case files (accuracy, stirred-mill "
-                             "calibration, Tavares verification)")
-    studies = analyse.add_subparsers(dest="study", required=True, metavar="STUDY")
-
-    acc = studies.add_parser("accuracy", help="error against run time (work-precision)")
-    stages = acc.add_subparsers(dest="stage", required=True, metavar="STAGE")
-    p = stages.add_parser("collect", help="one series' cases -> long table (CSV)")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--name", required=True, help="study name (ballmill, stirred_mill, ...)")
-    p.add_argument("--series", required=True)
-    p.add_argument("--ladder", required=True, help="the swept step parameter")
-    p.add_argument("--out", required=True)
-    p.set_defaults(func=cmd_accuracy_collect)
-    p = stages.add_parser("aggregate", help="series tables -> accuracy.nc (+ markdown summary)")
-    p.add_argument("tables", nargs="+")
-    p.add_argument("--tolerance", type=float, default=0.01)
-    p.add_argument("--limit-fraction", type=float, default=1.0,
-                   help="a chosen step stays <= this fraction of the stability limit")
-    p.add_argument("--reference", action="append", metavar="NAME/SERIES=OTHER",
-                   help="series compared with the reference of another series of that name")
-    p.add_argument("--method", action="append", metavar="NAME=METHOD",
-                   help="reference method per name: auto | finest | richardson")
-    p.add_argument("--decide", action="append", metavar="NAME=OBS,OBS",
-                   help="observables that decide the default step (default: headline ones)")
-    p.add_argument("--config-json", default="", help="the study's config, recorded as attribute")
-    p.add_argument("--out", required=True)
-    p.add_argument("--summary", help="markdown summary file")
-    p.set_defaults(func=cmd_accuracy_aggregate)
-    p = stages.add_parser("summary", help="print the markdown tables of accuracy.nc")
-    p.add_argument("input")
-    p.set_defaults(func=cmd_accuracy_summary)
-
-    stirred = studies.add_parser("stirred-mill", help="stirred-mill power-draw calibration stages")
-    stages = stirred.add_subparsers(dest="stage", required=True, metavar="STAGE")
-    p = stages.add_parser("friction", help="stage 1: friction from dry power vs speed")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--reference", required=True)
-    p.add_argument("--table", required=True, help="residuals per case (CSV)")
-    p.add_argument("--summary", required=True, help="sum of squared residuals per friction (CSV)")
-    p.add_argument("--choice", required=True, help="chosen friction (JSON)")
-    p.set_defaults(func=cmd_stirred_friction)
-    p = stages.add_parser("viscosity", help="stage 2: eta_sim per fluid at one speed")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--reference", required=True)
-    p.add_argument("--friction", required=True, help="stage 1 choice (JSON)")
-    p.add_argument("--rpm", type=float, required=True)
-    p.add_argument("--table", required=True)
-    p.add_argument("--choice", required=True)
-    p.set_defaults(func=cmd_stirred_viscosity)
-    p = stages.add_parser("predict", help="stage 3: power curves at the calibrated mu and eta_sim")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--reference", required=True)
-    p.add_argument("--viscosity", required=True, help="stage 2 choice (JSON)")
-    p.add_argument("--table", required=True)
-    p.set_defaults(func=cmd_stirred_predict)
-
-    tav = studies.add_parser("tavares", help="Tavares single-particle verification")
-    stages = tav.add_subparsers(dest="stage", required=True, metavar="STAGE")
-    p = stages.add_parser("aggregate", help="single_particle cases -> verification aggregate "
-                          "(with the pass-rule results)")
-    p.add_argument("cases", nargs="+")
-    p.add_argument("--out", required=True)
-    p.set_defaults(func=cmd_tavares_aggregate)
-    p = stages.add_parser("summary", help="print the pass-rule results of an aggregate")
-    p.add_argument("input")
-    p.set_defaults(func=cmd_tavares_summary)
 
 
 SCENE_MODULE_HELP = ("a scene of your own: a .py file or an importable module that registers "
@@ -496,17 +317,8 @@ SCENE_MODULE_HELP = ("a scene of your own: a .py file or an importable module th
                      "it in the entry-point group millsim.scenes")
 
 
-def build_parser():
-    parser = argparse.ArgumentParser(
-        prog="millsim", description="DEM parameter studies of mills and breakage (numba engine).")
-    parser.add_argument("--version", action="version", version=f"millsim {millsim.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    p = sub.add_parser("scenes", help="list scenes, or the parameters of one")
-    p.add_argument("name", nargs="?", help="scene to describe")
-    p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
-    p.set_defaults(func=cmd_scenes)
-
+def _run_parser(sub):
+    """``millsim run SCENE``: one case to a netCDF file."""
     p = sub.add_parser("run", help="run one case and write it as netCDF")
     p.add_argument("scene", help="scene name (see `millsim scenes`)")
     p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
@@ -537,31 +349,9 @@ def build_parser():
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("info", help="describe a millsim netCDF file: a case, an aggregate or an "
-                       "analysis output")
-    p.add_argument("file")
-    p.set_defaults(func=cmd_info)
 
-    p = sub.add_parser("aggregate", help="stack case files along their swept parameters (netCDF)")
-    p.add_argument("scene", help="scene the cases belong to")
-    p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
-    p.add_argument("cases", nargs="+", help="case files (.nc)")
-    p.add_argument("--over", action="append", metavar="KEY",
-                   help="parameter to stack along (repeatable; default: those that differ)")
-    p.add_argument("--out", required=True, help="output aggregate (.nc)")
-    p.set_defaults(func=cmd_aggregate)
-
-    p = sub.add_parser("plot", help="draw a figure of the plot registry (`millsim plot --list`)")
-    p.add_argument("kind", nargs="?", help="figure name (see --list)")
-    p.add_argument("input", nargs="?", help="what the figure is drawn from: an aggregate (.nc), a "
-                   "calibration table (.csv) or snapshots (.h5), as --list says")
-    p.add_argument("--out", help="output figure (.png, .gif for animation)")
-    p.add_argument("--list", action="store_true",
-                   help="print the registry: name, input, caption (tab-separated)")
-    p.set_defaults(func=cmd_plot)
-
-    _analyse_parser(sub)
-
+def _report_parsers(sub):
+    """``millsim report``, ``millsim verdicts`` and ``millsim evidence``."""
     p = sub.add_parser("report", help="the report's landing page: headline numbers, verification "
                        "verdicts, calibrated values (JSON summary + reStructuredText)")
     p.add_argument("--ballmill", help="ball-mill aggregate (.nc)")
@@ -588,6 +378,49 @@ def build_parser():
                    "default: docs/results)")
     p.add_argument("--json", help="also write the list (JSON)")
     p.set_defaults(func=cmd_evidence)
+
+
+def build_parser():
+    parser = argparse.ArgumentParser(
+        prog="millsim", description="DEM parameter studies of mills and breakage (numba engine).")
+    parser.add_argument("--version", action="version", version=f"millsim {millsim.__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("scenes", help="list scenes, or the parameters of one")
+    p.add_argument("name", nargs="?", help="scene to describe")
+    p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
+    p.set_defaults(func=cmd_scenes)
+
+    _run_parser(sub)
+
+    p = sub.add_parser("info", help="describe a millsim netCDF file: a case, an aggregate or an "
+                       "analysis output")
+    p.add_argument("file")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("aggregate", help="stack case files along their swept parameters (netCDF)")
+    p.add_argument("scene", help="scene the cases belong to")
+    p.add_argument("--scene-module", action="append", metavar="FILE|MODULE", help=SCENE_MODULE_HELP)
+    p.add_argument("cases", nargs="+", help="case files (.nc)")
+    p.add_argument("--over", action="append", metavar="KEY",
+                   help="parameter to stack along (repeatable; default: those that differ)")
+    p.add_argument("--out", required=True, help="output aggregate (.nc)")
+    p.set_defaults(func=cmd_aggregate)
+
+    p = sub.add_parser("plot", help="draw a figure of the plot registry (`millsim plot --list`)")
+    p.add_argument("kind", nargs="?", help="figure name (see --list)")
+    p.add_argument("input", nargs="?", help="what the figure is drawn from: an aggregate (.nc), a "
+                   "calibration table (.csv) or snapshots (.h5), as --list says")
+    p.add_argument("--out", help="output figure (.png, .gif for animation)")
+    p.add_argument("--list", action="store_true",
+                   help="print the registry: name, input, caption (tab-separated)")
+    p.set_defaults(func=cmd_plot)
+
+    from .cli_analyse import analyse_parser
+
+    analyse_parser(sub)
+
+    _report_parsers(sub)
     return parser
 
 
