@@ -589,6 +589,7 @@ def test_product_passing_spreads_fines_and_unbreakable_spheres(mats):
     recorded t10' passes m t_n/100 at the sieve d/n (eq 13 = eq 10 on the t_n sieves); a dummy
     sphere (size x_min of its parent) and an event's unresolved fines pass m (x/x_dummy)^lambda
     below their size (eq 11, lambda of eq 12 at their t10')."""
+    from millsim.scenes.bed_impact import BedEvent
     from millsim.scenes.bed_impact import product_passing as bed_passing
 
     mat = mats["copper_ore"]
@@ -613,8 +614,7 @@ def test_product_passing_spreads_fines_and_unbreakable_spheres(mats):
     masses2 = np.r_[masses, 0.2]
     dummy = np.array([False, False, False, True])
     dummy_t10 = np.array([0.0, 0.0, 0.0, t_dummy])
-    event = [0.0] * 14
-    event[7], event[10], event[12] = 10e-3, 20.0, 0.125  # parent diameter, t10', fines mass
+    event = BedEvent(*[0.0] * 14)._replace(parent_diameter=10e-3, t10=20.0, fines_mass=0.125)
     got = bed_passing(sizes2, masses2, dummy, dummy_t10, np.r_[t10_recorded, np.nan], [event],
                       mat, sieves)
     B_dummy = np.minimum(sieves / (X_MIN * parent_dummy), 1.0) ** ref_lambda(t_dummy, pairs)
