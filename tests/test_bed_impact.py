@@ -12,8 +12,9 @@ import pytest
 
 from millsim.engine import Guards, Simulation, StepPolicy
 from millsim.models import TavaresModel
+from millsim.models.breakage.progeny_families import global_min_size
 from millsim.models.breakage.replacement import TavaresReplacement
-from millsim.models.breakage.tavares import global_min_size, load_materials
+from millsim.models.breakage.tavares_materials import load_materials
 from millsim.scenes import bed_impact as bed
 from millsim.scenes.base import get_scene
 

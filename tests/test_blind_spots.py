@@ -294,7 +294,7 @@ def test_tavares_fines_conserve_mass_through_a_secondary_breakage():
     from the radii), and each event's fines are its parent's mass less its progeny's."""
     from millsim.models import TavaresModel
     from millsim.models.breakage.replacement import TavaresReplacement
-    from millsim.models.breakage.tavares import load_materials
+    from millsim.models.breakage.tavares_materials import load_materials
     from millsim.scenes import bed_impact as bed
     from millsim.scenes.base import get_scene
 

@@ -31,8 +31,8 @@ from millsim.analysis import bed_impact as bed_analysis
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.models import Interaction, Material, MaterialTable, TavaresModel, WeibullModel
 from millsim.models.breakage import tavares as tv
+from millsim.models.breakage import tavares_materials, weibull
 from millsim.models.breakage import tavares_predictions as ver
-from millsim.models.breakage import weibull
 from millsim.models.breakage.replacement import product_passing as replacement_passing
 from millsim.util.stats import binomial_interval, steady_rate
 
@@ -56,12 +56,12 @@ def make_sim(spec, table, **kw):
 
 @pytest.fixture(scope="module")
 def mats():
-    return tv.load_materials(truncation="bed")
+    return tavares_materials.load_materials(truncation="bed")
 
 
 @pytest.fixture(scope="module")
 def mats_sp():
-    return tv.load_materials(truncation="single_particle")
+    return tavares_materials.load_materials(truncation="single_particle")
 
 
 # ---- independent references ----------------------------------------------------------------
@@ -148,7 +148,7 @@ def test_eq1_2_cdf_and_quantiles(truncation, name):
     """Eqs 1-2 at several sizes: the CDF at given energies, and E at given quantiles u found by
     root finding on the equations. rel 1e-9 on E covers the root finder (1e-13) and round-off.
     At u = 1/2, E = E50 Emax/(Emax + E50) (E50 is the median of E*, not of E)."""
-    mat = tv.load_materials(truncation=truncation)[name]
+    mat = tavares_materials.load_materials(truncation=truncation)[name]
     for d in (0.3 * mat.d0, 5.5e-3, 3.0 * mat.d0):
         E50 = ref_E50(mat, d)
         Emax = mat.Emax_over_E50 * E50
@@ -243,7 +243,7 @@ def test_eq10_tn_by_the_incomplete_beta(source):
     if source == "table1":
         pairs, params = PAPER_TABLE1, tv.TABLE1_AVERAGE
     else:  # loaded here, not by the fixture: a broken t_n already makes the loader refuse
-        mat = tv.load_materials()[source]
+        mat = tavares_materials.load_materials()[source]
         pairs, params = pairs_of(mat), mat
     for t10 in (2.0, 5.0, 10.0, 25.0, 45.0):
         want = np.array([ref_tn(t10, *pairs[n]) for n in N_ORDER])

@@ -97,6 +97,7 @@ def bed(tmp, paper=False):
 def tavares(tmp):
     """A tavares_verification aggregate whose 'simulation' is the model itself with some scatter."""
     from millsim.models.breakage import tavares as tv
+    from millsim.models.breakage import tavares_materials
     from millsim.models.breakage.tavares_predictions import (
         breakage_probability,
         product_passing_model,
@@ -105,7 +106,7 @@ def tavares(tmp):
         table2_comparison,
     )
 
-    mat = tv.load_materials(tv.MATERIALS_FILE, truncation="single_particle")["copper_ore"]
+    mat = tavares_materials.load_materials(tavares_materials.MATERIALS_FILE, truncation="single_particle")["copper_ore"]
     share, d = 0.85, 5.5e-3
     ratios = np.array([0.5, 1.0, 1.5, 2.5])
     e50 = float(tv.median_fracture_energy(mat, d)) / share

@@ -130,7 +130,7 @@ def test_yaml_file_size_refused_before_reading(capsys, tmp_path):
 
 
 def test_shipped_yaml_within_the_limits():
-    from millsim.models.breakage.tavares import check_materials_file
+    from millsim.models.breakage.tavares_materials import check_materials_file
 
     assert check_materials_file("config/materials.yaml")
     for config in ("config/config.yaml", "config/paper.yaml", "config/bed_trends.yaml"):

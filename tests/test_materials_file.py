@@ -13,6 +13,7 @@ import yaml
 from millsim.cli import main
 from millsim.io import case_parameters, read_case
 from millsim.models.breakage import tavares as tv
+from millsim.models.breakage import tavares_materials
 from millsim.models.breakage import tavares_predictions as pred
 from millsim.scenes.base import get_scene
 
@@ -56,8 +57,8 @@ BAD = [
      "materials.limestone.incomplete_beta.2[1] (beta): -5.55 is outside the allowed range "
      "(0, inf)"),
     (("materials", "copper_ore", "sigmaa"), 0.8,
-     "materials.copper_ore.sigmaa: unknown key; known: " + ", ".join(tv.MATERIAL_KEYS)),
-    (("model", "kapa"), 1.0, "model.kapa: unknown key; known: " + ", ".join(tv.MODEL_KEYS)),
+     "materials.copper_ore.sigmaa: unknown key; known: " + ", ".join(tavares_materials.MATERIAL_KEYS)),
+    (("model", "kapa"), 1.0, "model.kapa: unknown key; known: " + ", ".join(tavares_materials.MODEL_KEYS)),
     (("simulation",), {"d_min_over_top_size": 0.05},
      "simulation: unknown key; known: model, materials, contacts"),
     (("materials", "steel", "sigma"), 0.8,
@@ -107,7 +108,7 @@ def test_bad_file_exact_one_line_message(tmp_path, keys, value, message):
     path = tmp_path / "m.yaml"
     path.write_text(edited(keys, value))
     with pytest.raises(ValueError) as refused:
-        tv.check_materials_file(path)
+        tavares_materials.check_materials_file(path)
     assert str(refused.value) == f"{path}: {message}"
 
 
@@ -126,12 +127,12 @@ def test_unreadable_file_one_line(tmp_path, text, message):
     path = tmp_path / "m.yaml"
     path.write_text(text)
     with pytest.raises(ValueError) as refused:
-        tv.check_materials_file(path)
+        tavares_materials.check_materials_file(path)
     assert str(refused.value) == f"{path}: {message}"
 
 
 def test_shipped_file_holds_the_paper_materials_and_cites_no_file_path():
-    assert tv.check_materials_file() == ["copper_ore", "granulite", "limestone"]
+    assert tavares_materials.check_materials_file() == ["copper_ore", "granulite", "limestone"]
     text = SHIPPED.read_text()
     assert "Tavares, Rodriguez, Sousani, Padros" in text and "(2021)" in text
     assert "/work/" not in text and ".txt" not in text
@@ -188,7 +189,7 @@ def test_user_ore_runs_through_single_particle(tmp_path):
     my_ore (its median fracture energy, its energy share), and at copper ore's median input
     energy, where half the copper-ore particles would break, my_ore almost never does."""
     path = my_ore_file(tmp_path)
-    mats = tv.load_materials(path, truncation="single_particle")
+    mats = tavares_materials.load_materials(path, truncation="single_particle")
     mine, copper = mats["my_ore"], mats["copper_ore"]
     d = 5.5e-3
     energy = pred.stressing_median(copper, d, pred.absorbed_share(copper))

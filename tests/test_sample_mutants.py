@@ -34,7 +34,10 @@ def test_each_mutant_replaces_exactly_its_node_and_changes_the_syntax_tree(tmp_p
             continue
         valid += 1
         mutated = target.read_text()
-        assert mutated.replace(m["replacement"], m["original"], 1) == text
+        # the replacement sits where the original was, and nothing else changed
+        end = m["start"] + len(m["replacement"])
+        assert mutated[m["start"]:end] == m["replacement"]
+        assert mutated[:m["start"]] + m["original"] + mutated[end:] == text
         assert ast.dump(ast.parse(mutated)) != ast.dump(ast.parse(text))
     assert valid >= 0.95 * len(mutants)
 

@@ -11,7 +11,7 @@ import pytest
 from scipy import special, stats
 
 from millsim.analysis.tavares_verification import pass_rule
-from millsim.models.breakage import tavares
+from millsim.models.breakage import tavares, tavares_materials
 from millsim.models.breakage import tavares_predictions as pred
 from millsim.scenes import single_particle as sp
 from millsim.scenes.base import REGISTRY, RunContext
@@ -33,7 +33,7 @@ def test_breakage_fraction_within_99_percent_interval_of_eq1():
     """200 copper-ore particles of 5.5 mm at the median input energy: the analytic eq 1 value at
     the absorbed energy lies inside the 99 % Clopper-Pearson interval of the fraction broken."""
     ds = _run(n_particles=200, energy_ratio=1.2, replacement=False)
-    mat = tavares.load_materials(truncation="single_particle")["copper_ore"]
+    mat = tavares_materials.load_materials(truncation="single_particle")["copper_ore"]
     share = pred.absorbed_share(mat)
     assert float(ds["absorbed_share"]) == pytest.approx(share)
     expected = float(pred.breakage_probability(mat, 5.5e-3, float(ds["specific_energy"]), share))
@@ -64,7 +64,7 @@ def test_repeated_impacts_follow_the_damage_model():
     n, impacts, gamma = 150, 10, 3.0
     ds = _run(mode="repeated", diameter=0.0375, specific_energy=94.7, impacts=impacts,
               gamma=gamma, n_particles=n)
-    mat = tavares.load_materials(truncation="single_particle")["copper_ore"]
+    mat = tavares_materials.load_materials(truncation="single_particle")["copper_ore"]
     share = pred.absorbed_share(mat)
     model = pred.repeated_impact_broken(mat, 0.0375, 94.7, share, impacts, gamma=gamma)
     assert ds["impact_broken_fraction_analytic"].values == pytest.approx(model)
@@ -87,7 +87,7 @@ def test_repeated_impacts_follow_the_damage_model():
 
 
 def test_repeated_model_reduces_to_eq1_for_one_impact():
-    mat = tavares.load_materials(truncation="single_particle")["limestone"]
+    mat = tavares_materials.load_materials(truncation="single_particle")["limestone"]
     share = pred.absorbed_share(mat)
     one = pred.repeated_impact_broken(mat, 5.5e-3, 60.0, share, 1)[0]
     assert one == pytest.approx(float(pred.breakage_probability(mat, 5.5e-3, 60.0, share)), abs=1e-4)

@@ -177,7 +177,7 @@ def _hertz_elastic_energy(sim):
 
 def _ore_on_plate(v0, seed=3):
     from millsim.models.breakage.replacement import TavaresReplacement
-    from millsim.models.breakage.tavares import load_materials
+    from millsim.models.breakage.tavares_materials import load_materials
 
     mats = load_materials(truncation="single_particle")
     ore, steel = mats["copper_ore"], mats["steel"]

@@ -162,7 +162,7 @@ def test_replacement_conserves_mass_and_momentum_and_adds_no_energy():
     fines = parent mass, the progeny carry the parent's momentum, and their creation overlaps
     put no energy in (kinetic energy after the event stays below the parent's before impact)."""
     from millsim.models.breakage.replacement import TavaresReplacement
-    from millsim.models.breakage.tavares import load_materials
+    from millsim.models.breakage.tavares_materials import load_materials
 
     mats = load_materials(truncation="single_particle")
     ore, steel = mats["copper_ore"], mats["steel"]
@@ -234,8 +234,10 @@ def test_break_at_end_reports_the_whole_event_once():
 def test_resolved_unbreakable_particle_records_eq8_and_stays_whole():
     """Below the global minimum size for a family a particle is not replaced: its first breaking
     event's t10' (eq 8, whole-event energy) is recorded, then it never reports again."""
+    from millsim.models.breakage.progeny_families import is_breakable
     from millsim.models.breakage.replacement import TavaresReplacement
-    from millsim.models.breakage.tavares import is_breakable, load_materials, t10_prime
+    from millsim.models.breakage.tavares import t10_prime
+    from millsim.models.breakage.tavares_materials import load_materials
 
     mats = load_materials(truncation="single_particle")
     ore, steel = mats["copper_ore"], mats["steel"]
@@ -269,7 +271,8 @@ def test_resolved_unbreakable_particle_records_eq8_and_stays_whole():
 
 def test_eq13_product_spreads_recorded_spheres_and_conserves_mass():
     from millsim.models.breakage.replacement import product_passing
-    from millsim.models.breakage.tavares import load_materials, resolved_unbreakable_passing
+    from millsim.models.breakage.tavares import resolved_unbreakable_passing
+    from millsim.models.breakage.tavares_materials import load_materials
 
     ore = load_materials()["copper_ore"]
     sizes = np.array([2e-3, 1e-3, 1e-3])

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy import integrate, special, stats
 
+from millsim.models.breakage import progeny_families, progeny_placement, tavares_materials
 from millsim.models.breakage import tavares as tv
-from millsim.models.breakage import tavares_materials
 from millsim.models.breakage.tavares_predictions import (
     TABLE2_COUNTS,
     TABLE2_DUMMY,
@@ -25,13 +25,13 @@ STEEL_K = 210e9 / (1.0 - 0.3**2)
 
 @pytest.fixture(scope="module")
 def mats():
-    return tv.load_materials()
+    return tavares_materials.load_materials()
 
 
 @pytest.fixture(scope="module")
 def fam():
     """Table 1 families (the paper's standard families) at the t10' values the tests use."""
-    return {t: tv.generate_families(t) for t in (3.0, 10.0, 30.0)}
+    return {t: progeny_families.generate_families(t) for t in (3.0, 10.0, 30.0)}
 
 
 # ---- eq 4 and materials ---------------------------------------------------------------------
@@ -53,11 +53,11 @@ def test_materials_from_paper_tables(mats):
     assert cu.k == pytest.approx(52e9 / (1 - 0.25**2))
     assert cu.device_stiffness == pytest.approx(STEEL_K)
     assert cu.Emax_over_E50 == 100.0 and cu.kappa == 1.0
-    assert tv.load_materials(truncation="single_particle")["granulite"].Emax_over_E50 == 4.0
+    assert tavares_materials.load_materials(truncation="single_particle")["granulite"].Emax_over_E50 == 4.0
     assert not mats["steel"].breakable and mats["steel"].k == pytest.approx(STEEL_K)
     with pytest.raises(ValueError, match="never breaks"):
         tv.median_fracture_energy(mats["steel"], 0.01)
-    assert tv.load_contacts()["particle_steel"]["restitution"] == 0.39  # Table 6
+    assert tavares_materials.load_contacts()["particle_steel"]["restitution"] == 0.39  # Table 6
 
 
 def test_load_errors_name_key_and_file(tmp_path):
@@ -65,25 +65,25 @@ def test_load_errors_name_key_and_file(tmp_path):
     bad = tmp_path / "m.yaml"
     bad.write_text(good.replace("    sigma: 0.799", "    sigma: -0.799"))
     with pytest.raises(ValueError, match=r"m\.yaml.*copper_ore\.sigma.*outside"):
-        tv.load_materials(bad)
+        tavares_materials.load_materials(bad)
     bad.write_text(good.replace('      "75": [0.90, 0.31]\n', ""))
     with pytest.raises(ValueError, match=r"m\.yaml.*granulite\.incomplete_beta.*got n = .*, 50$"):
-        tv.load_materials(bad)
+        tavares_materials.load_materials(bad)
     bad.write_text(good.replace("    b_prime: 0.033             # Table 4\n", ""))
     with pytest.raises(ValueError, match=r"m\.yaml.*limestone\.b_prime: missing"):
-        tv.load_materials(bad)
+        tavares_materials.load_materials(bad)
     with pytest.raises(ValueError, match="truncation: 'nonsense' is not one of"):
-        tv.load_materials(truncation="nonsense")
+        tavares_materials.load_materials(truncation="nonsense")
     bad.write_text(good.replace("    bed: 100\n", "    bed: 1\n"))
     with pytest.raises(ValueError, match=r"emax_over_e50\.bed.*outside"):
-        tv.load_materials(bad)
+        tavares_materials.load_materials(bad)
     bad.write_text(good.replace("    A_percent: 67.7", "    A_percent: 120"))
     with pytest.raises(ValueError, match=r"copper_ore\.A_percent.*outside"):
-        tv.load_materials(bad)
+        tavares_materials.load_materials(bad)
     # t4 above t2 for every t10: the beta pair of "4" is that of "1.5" (a much steeper curve)
     bad.write_text(good.replace('      "4": [1.08, 3.03]', '      "4": [0.20, 0.20]'))
     with pytest.raises(ValueError, match=r"copper_ore\.incomplete_beta: t4 > t2"):
-        tv.load_materials(bad)
+        tavares_materials.load_materials(bad)
 
 
 def test_bad_materials_file_stops_the_study_before_any_job(tmp_path, monkeypatch):
@@ -102,7 +102,7 @@ def test_kwh_per_t_is_converted(tmp_path):
     text = tavares_materials._resolve("config/materials.yaml").read_text()
     f = tmp_path / "m.yaml"
     f.write_text(text.replace("E_inf: {J_per_kg: 213.5}", "E_inf: {kWh_per_t: 0.05}"))
-    assert tv.load_materials(f)["copper_ore"].E_inf == pytest.approx(180.0)
+    assert tavares_materials.load_materials(f)["copper_ore"].E_inf == pytest.approx(180.0)
 
 
 # ---- eqs 1-3 --------------------------------------------------------------------------------
@@ -126,7 +126,7 @@ def test_sampled_fracture_energies_follow_truncated_lognormal(truncation):
     (the seed is fixed, so the outcome is reproducible). The same samples must be rejected
     against the untruncated lognormal when Emax/E50 = 4, so the test can tell the two apart.
     """
-    cu = tv.load_materials(truncation=truncation)["copper_ore"]
+    cu = tavares_materials.load_materials(truncation=truncation)["copper_ore"]
     d = 5.5e-3
     u = np.random.default_rng(20211).random(20000)
     E = tv.sample_fracture_energy(cu, d, u)
@@ -267,7 +267,7 @@ def test_passing_curve_and_fines_extension():
 @pytest.mark.parametrize("n_classes", [4, 9])
 def test_every_family_conserves_mass_exactly(n_classes):
     for t10 in (0.7, 3.0, 10.0, 30.0, 60.0):
-        tab = tv.generate_families(t10, n_classes=n_classes)
+        tab = progeny_families.generate_families(t10, n_classes=n_classes)
         assert len(tab.probabilities) <= n_classes + 2
         assert tab.probabilities.sum() == pytest.approx(1.0, abs=1e-12)
         assert np.all(tab.probabilities > 0)
@@ -349,14 +349,14 @@ def test_families_reproduce_tn(fam, t10):
 
 
 def test_family_tables_are_deterministic_and_cached(mats):
-    a = tv.generate_families(7.3)
-    b = tv.generate_families(7.3)
+    a = progeny_families.generate_families(7.3)
+    b = progeny_families.generate_families(7.3)
     np.testing.assert_array_equal(a.probabilities, b.probabilities)
     np.testing.assert_array_equal(a.counts, b.counts)
     cu = mats["copper_ore"]
-    assert tv.families(cu, 3.04) is tv.families(cu, 2.96)  # both on the 3.0 grid point
-    assert tv.families(cu, 3.04).t10 == 3.0
-    assert tv.t10_grid(0.01) == tv.T10_STEP
+    assert progeny_families.families(cu, 3.04) is progeny_families.families(cu, 2.96)  # both on the 3.0 grid point
+    assert progeny_families.families(cu, 3.04).t10 == 3.0
+    assert progeny_families.t10_grid(0.01) == tv.T10_STEP
 
 
 # ---- break_particle -------------------------------------------------------------------------
@@ -377,10 +377,10 @@ def test_break_particle_inside_parent_and_across_the_load(mats, ratio):
     load /= np.linalg.norm(load)
     cos = []
     for k in range(8):
-        pr = tv.break_particle(cu, d, ratio * 400.0, 400.0, load, (k + 0.5) / 8, 0.37 * k,
+        pr = progeny_placement.break_particle(cu, d, ratio * 400.0, 400.0, load, (k + 0.5) / 8, 0.37 * k,
                                d_min=d_min)
         _check_progeny(pr, d, cu.density)
-        assert pr.t10 == tv.t10_grid(tv.t10_prime(cu, ratio * 400.0, 400.0))
+        assert pr.t10 == progeny_families.t10_grid(tv.t10_prime(cu, ratio * 400.0, 400.0))
         big = pr.offsets[:2]
         cos += list(np.abs(big @ load) / np.maximum(np.linalg.norm(big, axis=1), 1e-300))
         # fragments whose own family would fall below d_min are resolved-unbreakable
@@ -392,17 +392,17 @@ def test_break_particle_inside_parent_and_across_the_load(mats, ratio):
 def test_break_particle_deterministic_and_family_draw(mats):
     cu = mats["copper_ore"]
     args = (cu, 0.01, 250.0, 100.0, [0, 0, 1])
-    a = tv.break_particle(*args, 0.42, 0.9)
-    b = tv.break_particle(*args, 0.42, 0.9)
+    a = progeny_placement.break_particle(*args, 0.42, 0.9)
+    b = progeny_placement.break_particle(*args, 0.42, 0.9)
     np.testing.assert_array_equal(a.offsets, b.offsets)
     np.testing.assert_array_equal(a.radii, b.radii)
-    tab = tv.families(cu, a.t10)
+    tab = progeny_families.families(cu, a.t10)
     cum = np.cumsum(tab.probabilities)
     for i in range(len(cum)):
         lo = 0.0 if i == 0 else cum[i - 1]
-        assert tv.break_particle(*args, 0.5 * (lo + cum[i]), 0.0).family == i
+        assert progeny_placement.break_particle(*args, 0.5 * (lo + cum[i]), 0.0).family == i
     # the spin turns the arrangement about the load axis: same sizes, same axial coordinates
-    c = tv.break_particle(*args, 0.42, 0.15)
+    c = progeny_placement.break_particle(*args, 0.42, 0.15)
     np.testing.assert_array_equal(a.radii, c.radii)
     np.testing.assert_allclose(a.offsets[:, 2], c.offsets[:, 2], atol=1e-15)
     assert not np.allclose(a.offsets, c.offsets)
@@ -410,16 +410,16 @@ def test_break_particle_deterministic_and_family_draw(mats):
 
 def test_break_particle_fines_and_unbreakable_sizes(mats):
     cu = mats["copper_ore"]
-    pr = tv.break_particle(cu, 0.01, 300.0, 100.0, [1, 0, 0], 0.3, 0.3, dummy_as="fines")
+    pr = progeny_placement.break_particle(cu, 0.01, 300.0, 100.0, [1, 0, 0], 0.3, 0.3, dummy_as="fines")
     assert not pr.dummy.any() and pr.fines_mass > 0
     _check_progeny(pr, 0.01, cu.density)
     # standard policy: a parent whose family would reach below d_min cannot break
-    assert not tv.is_breakable(cu, 4e-3, 1e-3)
-    assert tv.is_breakable(cu, 5e-3, 1e-3)
+    assert not progeny_families.is_breakable(cu, 4e-3, 1e-3)
+    assert progeny_families.is_breakable(cu, 5e-3, 1e-3)
     with pytest.raises(ValueError, match="resolved-unbreakable"):
-        tv.break_particle(cu, 4e-3, 300.0, 100.0, [1, 0, 0], 0.3, 0.3, d_min=1e-3)
+        progeny_placement.break_particle(cu, 4e-3, 300.0, 100.0, [1, 0, 0], 0.3, 0.3, d_min=1e-3)
     # truncate policy: the family is cut at d_min, dummy spheres never smaller than d_min
-    pr = tv.break_particle(cu, 4e-3, 300.0, 100.0, [1, 0, 0], 0.3, 0.3, d_min=1e-3,
+    pr = progeny_placement.break_particle(cu, 4e-3, 300.0, 100.0, [1, 0, 0], 0.3, 0.3, d_min=1e-3,
                            policy="truncate")
     assert pr.n_classes == 8
     assert 2 * pr.radii.min() >= 1e-3 * (1 - 1e-9)

@@ -10,7 +10,7 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..models.breakage import tavares
+from ..models.breakage import tavares, tavares_materials
 from ..models.breakage.tavares_predictions import (
     breakage_probability,
     product_passing_model,
@@ -34,7 +34,7 @@ def probability(ds, out):
     colours = matplotlib.colormaps["tab10"]
     markers = {"single": "o", "drop_weight": "s"}
     for j, mat_name in enumerate(ds["prob_material"].values):
-        path = ds.attrs.get("prob_materials_file", tavares.MATERIALS_FILE)
+        path = ds.attrs.get("prob_materials_file", tavares_materials.MATERIALS_FILE)
         mat = _material(str(mat_name), path)
         share = float(np.nanmean(ds["prob_absorbed_share"].isel(prob_material=j)))
         d = float(ds.attrs.get("prob_diameter_m", 5.5e-3))
@@ -91,7 +91,7 @@ def repeated(ds, out):
 
 def _frag_model(ds, i):
     """(material, diameter, absorbed share) of fragmentation case ``i``: the model curves' input."""
-    path = ds.attrs.get("frag_materials_file", tavares.MATERIALS_FILE)
+    path = ds.attrs.get("frag_materials_file", tavares_materials.MATERIALS_FILE)
     mat = _material(str(ds["frag_material"].values[i]), path)
     share = float(np.nanmean(ds["t10_absorbed_share"].isel(frag_case=i)))
     return mat, float(ds["frag_diameter"].values[i]), share
@@ -196,4 +196,4 @@ def table2(ds, out):
 
 
 def _material(name, path, truncation="single_particle"):
-    return tavares.load_materials(path, truncation=truncation)[name]
+    return tavares_materials.load_materials(path, truncation=truncation)[name]

@@ -41,7 +41,7 @@ import numpy as np
 
 from ..engine import Guards, PhysicsSpec, Simulation, SimulationError
 from ..models import Interaction, Material, MaterialTable, TavaresModel
-from ..models.breakage import tavares
+from ..models.breakage import progeny_families, tavares, tavares_materials
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement
 from ..models.breakage.replacement import product_passing as replacement_passing
 from .base import TIME_STEP_PARAMS, Param, Scene, record_steps, register, step_policy
@@ -91,7 +91,7 @@ PARAMS = (
           "fragments nipped by the ball reach ~0.6-1)", "1", 0.0, 5.0, lo_open=True),
     Param("v_max", 1000.0, "guard: particle speed that stops the run (small fragments released from "
           "heavy compression are fast)", "m s-1", 0.0, lo_open=True),
-    Param("materials_file", tavares.MATERIALS_FILE, "Tavares materials and Table 6 contact "
+    Param("materials_file", tavares_materials.MATERIALS_FILE, "Tavares materials and Table 6 contact "
           "parameters (docs/materials.md)"),
     Param("seed", 1, "seed of fracture energies, families and arrangements (replicates)", "1", 0),
 )
@@ -104,7 +104,7 @@ def _check(values):
         raise ValueError(f"record_interval: {values['record_interval']:g} s is longer than the "
                          f"impact (max_time); allowed (0, {values['max_time']:g}] s")
     # a bad materials file or material is refused before any job runs
-    tavares.check_material(values["materials_file"], values["material"])
+    tavares_materials.check_material(values["materials_file"], values["material"])
 
 
 # ---- geometry ---------------------------------------------------------------------------------
@@ -164,7 +164,7 @@ def sphere_mass(density, d):
 
 # ---- materials ----------------------------------------------------------------------------------
 def material_table(values, tav):
-    contacts = tavares.load_contacts(values["materials_file"])
+    contacts = tavares_materials.load_contacts(values["materials_file"])
     name, ore, steel = values["material"], tav[values["material"]], tav["steel"]
 
     def inter(key, **override):
@@ -311,12 +311,12 @@ class BedImpactCase(Case):
     def __init__(self, values):
         super().__init__()
         self.values = values
-        self.tav = tavares.load_materials(values["materials_file"], truncation="bed")
+        self.tav = tavares_materials.load_materials(values["materials_file"], truncation="bed")
         self.mat = self.tav[values["material"]]
         self.table = material_table(values, self.tav)
         d = values["particle_diameter"]
         self.r = r = 0.5 * d
-        self.d_min = tavares.global_min_size(d, values["d_min_ratio"])
+        self.d_min = progeny_families.global_min_size(d, values["d_min_ratio"])
         self.v0 = ball_speed(values["impact_energy"], values["ball_mass"])
         self.x_bed = bed_positions(values["rings"], values["layers"], d, values["spacing"])
         self.n_bed = len(self.x_bed)

@@ -59,7 +59,7 @@ import numpy as np
 
 from ..engine import Guards, PhysicsSpec, Simulation
 from ..models import Interaction, Material, MaterialTable, TavaresModel
-from ..models.breakage import tavares
+from ..models.breakage import progeny_families, tavares, tavares_materials
 from ..models.breakage import tavares_predictions as tv
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
 from ..util.stats import binomial_interval, bootstrap_interval
@@ -75,7 +75,7 @@ PARAMS = (
     Param("mode", "single", "single impact on a plate, drop-weight test (striker + anvil, two "
           "contacts summed), or repeated impacts", choices=MODES),
     Param("material", "copper_ore", "particle material: any breakable one of materials_file"),
-    Param("materials_file", tavares.MATERIALS_FILE, "Tavares materials (docs/materials.md)"),
+    Param("materials_file", tavares_materials.MATERIALS_FILE, "Tavares materials (docs/materials.md)"),
     Param("diameter", 5.5e-3, "particle diameter", "m", 0.0, lo_open=True),
     Param("specific_energy", 0.0, "set input (stressing) specific energy Ek/m; 0 = energy_ratio "
           "x the stressing-basis median E_inf[1+(d0/d)^phi]", "J kg-1", 0.0),
@@ -85,7 +85,7 @@ PARAMS = (
     Param("impacts", 20, "successive impacts (mode repeated)", "1", 1, 1000),
     Param("gamma", 0.0, "damage coefficient of eq 6; 0 = the material's (Table 4)", "1", 0.0),
     Param("truncation", "single_particle", "Emax/E50 of materials_file: single_particle "
-          "(4, Tavares et al. 2021 verification) or bed (100)", choices=tavares.TRUNCATIONS),
+          "(4, Tavares et al. 2021 verification) or bed (100)", choices=tavares_materials.TRUNCATIONS),
     Param("breakage_at", "first_reach", "when a particle breaks: first_reach (absorbed energy of the "
           "event reaches E) or end_of_loading (when the event ends, t10' from its whole energy)",
           choices=BREAKAGE_AT),
@@ -114,7 +114,7 @@ def _check(values):
     if values["mode"] == "repeated" and values["replacement"] and values["impacts"] < 1:
         raise ValueError("impacts: at least 1")
     # a bad materials file or material is refused before any job runs
-    tavares.check_material(values["materials_file"], values["material"])
+    tavares_materials.check_material(values["materials_file"], values["material"])
     # a drop-weight test has a striker per particle
     check_particle_memory("n_particles",
                           values["n_particles"] * (2 if values["mode"] == "drop_weight" else 1))
@@ -146,7 +146,7 @@ class Setup:
 
 
 def _materials(values):
-    mats = tavares.load_materials(values["materials_file"], truncation=values["truncation"])
+    mats = tavares_materials.load_materials(values["materials_file"], truncation=values["truncation"])
     mat = mats[values["material"]]
     if values["gamma"] > 0:
         mat = dataclasses.replace(mat, gamma=values["gamma"])
@@ -455,7 +455,7 @@ class SingleParticleCase(Case):
         self.mode = values["mode"]
         self.replacing = _replacing(values)
         self.replace = TavaresReplacement({s.mat.name: s.mat},
-                                          d_min=tavares.global_min_size(values["diameter"]),
+                                          d_min=progeny_families.global_min_size(values["diameter"]),
                                           seed=s.case_seed, dummy_as="fines",
                                           breakage_at=values["breakage_at"])
         originals = np.flatnonzero(s.ids >= 0)

@@ -4,7 +4,8 @@ The compiled loop decides *when* a particle breaks (absorbed energy of a stressi
 its damaged fracture energy) and stops the chunk there; :class:`TavaresReplacement` is the
 ``on_fracture`` handler that does the rest in Python:
 
-- draws the progeny family (:func:`~millsim.models.breakage.tavares.break_particle`) with counter-based
+- draws the progeny family
+  (:func:`~millsim.models.breakage.progeny_placement.break_particle`) with counter-based
   uniforms, so a run is reproducible whatever happens elsewhere;
 - replaces the parent by its progeny, placed inside it, moving with the parent's rigid motion
   (linear and angular momentum of the parent are kept);
@@ -34,7 +35,7 @@ import numpy as np
 
 from ...engine.rng import hash_uniform
 from ...engine.state import disk_or_sphere_mass
-from . import tavares
+from . import progeny_families, progeny_placement, tavares
 
 BREAKAGE_AT = ("first_reach", "end_of_loading")
 # Streams of the counter-based generator (second key), so that draws never collide.
@@ -78,7 +79,7 @@ class TavaresReplacement:
             materials of the simulation (others never break).
         d_min: global minimum resolved size [m] (Tavares et al. 2021: 1/20 of the top size).
         seed: seed of the family, arrangement and fracture-energy draws.
-        policy, dummy_as: see :func:`~millsim.models.breakage.tavares.break_particle`.
+        policy, dummy_as: see :func:`~millsim.models.breakage.progeny_placement.break_particle`.
         breakage_at: ``"first_reach"`` or ``"end_of_loading"`` (see the module text).
     """
 
@@ -121,7 +122,7 @@ class TavaresReplacement:
                 continue
             d = 2.0 * p.radius[i]
             model.break_at_end[i] = (self.breakage_at == "end_of_loading"
-                                     or not tavares.is_breakable(mat, d, self.d_min, self.policy))
+                                     or not progeny_families.is_breakable(mat, d, self.d_min, self.policy))
             u = self._uniform(STREAM_ENERGY, self._next_key())
             model.e_frac[i] = float(tavares.sample_fracture_energy(mat, d, np.array([u]))[0])
 
@@ -135,7 +136,7 @@ class TavaresReplacement:
             name = names[p.material[i]]
             mat = self.materials[name]
             d = 2.0 * p.radius[i]
-            if not tavares.is_breakable(mat, d, self.d_min, self.policy):
+            if not progeny_families.is_breakable(mat, d, self.d_min, self.policy):
                 t10 = float(tavares.t10_prime(mat, specific, model.e_frac[i]))
                 self.records.append(UnbreakableRecord(sim.time, p.x[i].copy(), d, name, specific,
                                                       float(model.e_frac[i]), t10))
@@ -143,7 +144,7 @@ class TavaresReplacement:
                 model.e_frac[i] = np.inf  # only the first breaking event counts
                 continue
             key = self._next_key()
-            progeny = tavares.break_particle(
+            progeny = progeny_placement.break_particle(
                 mat, d, specific, float(model.e_frac[i]), direction,
                 self._uniform(STREAM_FAMILY, key), self._uniform(STREAM_SPIN, key),
                 d_min=self.d_min, policy=self.policy, dummy_as=self.dummy_as)

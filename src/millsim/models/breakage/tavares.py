@@ -19,13 +19,12 @@ Pieces, in the order the engine meets them:
   parent.
 
 This module holds the constants, ``TavaresMaterial`` and the equations; the materials file is read
-by ``tavares_materials``. The public names of those three modules are re-exported here.
+by ``tavares_materials``; those three modules import from this one, never the reverse.
 Choices where the paper text is ambiguous are documented in docs/tavares.md.
 """
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -349,28 +348,6 @@ def event_passing(t10, x_rel, mat_or_params, x_min=SIEVE_RATIO**-STANDARD_CLASSE
     return np.where(x >= x_min, above, below)
 
 
-# ---- re-exports ------------------------------------------------------------------------------
-# The materials file, the families and the replacement step live in modules that import this one;
-# their names stay reachable here (``tavares.load_materials``, ``from .tavares import
-# break_particle``), imported on first use (PEP 562), so that no import runs in a circle.
-_MOVED = {
-    "tavares_materials": ("MATERIALS_FILE", "TRUNCATIONS", "DEVICE_MATERIAL", "TOP_KEYS",
-                          "MODEL_KEYS", "MATERIAL_KEYS", "DEVICE_KEYS", "CONTACT_PAIRS",
-                          "CONTACT_KEYS", "check_material", "check_materials_file",
-                          "load_contacts", "load_materials"),
-    "progeny_families": ("FamilyTable", "class_targets", "generate_families", "t10_grid",
-                         "families", "family_classes_for", "is_breakable", "global_min_size"),
-    "progeny_placement": ("place_fragments", "Progeny", "break_particle"),
-}
-
-
-def __getattr__(name):
-    for module, names in _MOVED.items():
-        if name in names:
-            return getattr(importlib.import_module(f".{module}", __package__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 __all__ = [
     "KWH_PER_T",
     "N_VALUES",
@@ -401,4 +378,3 @@ __all__ = [
     "truncated_lognormal_cdf",
     "truncated_lognormal_ppf",
 ]
-__all__ += [name for names in _MOVED.values() for name in names]  # via __getattr__

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from . import tavares
+from . import progeny_families, tavares
 from .damage import damage_fraction
 
 # Tavares et al. 2021, Table 2 (t10' = 3 %, Table 1 parameters): fragments per relative size (rows)
@@ -130,7 +130,7 @@ def table2_passing():
 def table2_comparison(t10=3.0):
     """(relative sieves, the paper's Table 2, our families' mean, eq 10 target) in % passing."""
     sieves = tavares.SIEVE_RATIO ** -np.arange(1.0, 10.0)
-    tab = tavares.generate_families(t10, tavares.TABLE1_AVERAGE)
+    tab = progeny_families.generate_families(t10, tavares.TABLE1_AVERAGE)
     ours = tab.passing(sieves)
     target = tavares.cumulative_passing(t10, sieves, tavares.TABLE1_AVERAGE)
     return sieves, table2_passing(), np.asarray(ours), np.asarray(target)
