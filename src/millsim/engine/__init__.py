@@ -12,6 +12,7 @@ from pathlib import Path
 import numba
 
 from .. import provenance_hash
+from .kernel_cache import lock_cache_writes
 
 # A kernel cache of another code version unused for this long is removed (each holds tens of MB;
 # every edit below the studies makes a new one).
@@ -45,6 +46,8 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
         _prune_kernel_caches(_cache)
     except OSError:  # a read-only cache directory: nothing to mark or prune
         pass
+
+lock_cache_writes()
 
 # Each step opens two short parallel regions; OpenMP starts them in microseconds, TBB and the
 # workqueue fallback take 10-50x longer, which dominates small systems.
