@@ -293,6 +293,10 @@ def _provenance_attrs(provenance: dict[str, Any]) -> dict[str, Any]:
             value = value.item()
         if isinstance(value, (str, int, float)):  # bool is an int
             attrs[f"param_{key}"] = _attr_value(key, value)
+        elif value and isinstance(value, (list, tuple)) and all(isinstance(v, dict)
+                                                                for v in value):
+            # a list of declarations (the walls): its YAML text (JSON is YAML)
+            attrs[f"param_{key}"] = json.dumps(value, sort_keys=True, default=_json_default)
 
     for key, value in provenance.items():
         if key not in _REQUIRED_PROVENANCE:

@@ -27,7 +27,7 @@ def bed_impact_study():
             [v if isinstance(v, list) else [v] for v in values.values()], names=BED_IMPACT_OVER
         ).to_frame(index=False)
         rows.append(grid)
-    fixed = {k: str(v) for k, v in {**fixed, **scene_files("bed_impact")}.items()}
+    fixed = {k: param_text(v) for k, v in {**fixed, **scene_files("bed_impact")}.items()}
     given = pd.concat(rows, ignore_index=True)
     # the scene checks the values as given (a rings of 1.5 must be refused, not cast to 1) ...
     checked_study("bed_impact", "bed_impact", Study("bed_impact", Paramspace(given), fixed))

@@ -84,9 +84,14 @@ def make_study(block, scene, values, stack_over, **pinned):
     ``pinned`` are set by the study itself, whatever the config says.
     """
     values = {**values, **scene_files(scene), **pinned}
+    params = {p.name: p for p in get_scene(scene).params}
     swept = [
         *stack_over,
-        *(k for k, v in values.items() if isinstance(v, list) and k not in stack_over),
+        *(
+            k
+            for k, v in values.items()
+            if isinstance(v, list) and k not in stack_over and sweepable(params.get(k))
+        ),
     ]
     grid = pd.MultiIndex.from_product(
         [values[k] if isinstance(values[k], list) else [values[k]] for k in swept],
@@ -95,10 +100,23 @@ def make_study(block, scene, values, stack_over, **pinned):
     study = checked_study(
         block,
         scene,
-        Study(scene, Paramspace(grid), {k: str(v) for k, v in values.items() if k not in swept}),
+        Study(
+            scene, Paramspace(grid), {k: param_text(v) for k, v in values.items() if k not in swept}
+        ),
     )
     refuse_repeats(block, scene, values)
     return study
+
+
+def sweepable(param):
+    """Whether a list given for ``param`` sweeps it (the walls' list is one value; an unknown
+    key is the scene's to refuse)."""
+    return param is None or param.sweepable
+
+
+def param_text(value):
+    """A fixed parameter as `--set` text: a list (the walls) as JSON, which is YAML."""
+    return json.dumps(value) if isinstance(value, list) else str(value)
 
 
 def refuse_repeats(block, scene, values):
@@ -106,7 +124,7 @@ def refuse_repeats(block, scene, values):
     which the aggregate would refuse only after every case had run."""
     params = {p.name: p for p in get_scene(scene).params}
     for key, given in values.items():
-        if not isinstance(given, list):
+        if not isinstance(given, list) or not sweepable(params.get(key)):
             continue
         seen = {}
         for value in given:

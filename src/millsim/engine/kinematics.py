@@ -4,7 +4,7 @@ Walls are rows of a float table so that one compiled loop serves any mix of them
 keys, checks and contact function: one entry of the registry in :mod:`millsim.engine.walls`):
 
     [kind, px, py, pz, ax, ay, az, radius, omega, material, active, z0, r0, z1, r1,
-     vx, vy, vz, ox, oy, oz]
+     vx, vy, vz, ox, oy, oz, ramp, omega_full, vx_full, vy_full, vz_full, ox0, oy0, oz0]
 
 The kinds (plane, cylinders, frustums and annuli, tori, meshes), their keys and what their
 columns hold: engine.walls and docs/walls.md. ``radius`` holds a turning wall's fastest radius.
@@ -13,6 +13,12 @@ columns hold: engine.walls and docs/walls.md. ``radius`` holds a turning wall's 
 has settled). Any wall may also translate at the constant velocity v (a piston, a compression
 plate, a lifting gate): its point is o + v t, o its point at t = 0 (``place_walls``, compiled only
 with PhysicsSpec.translating_walls), and v adds to the velocity of its surface at a contact.
+
+A wall with ``ramp`` T > 0 (PhysicsSpec.ramped_walls) starts from rest: its omega and velocity
+grow linearly from 0 at t = 0 to their full values (the ``*_full`` columns) at t = T, then stay,
+so that its angle is omega t^2 / (2T) before T and omega (t - T/2) after, and its point moves
+likewise from o0 (``ramp_walls``, each step before the walls are placed). The loop's contacts
+read omega and v of the step as for any wall; without ramp those columns are never written.
 
 Kinematic bodies are groups of particles whose positions follow a prescribed motion from their
 reference positions at t = 0, so there is no drift however long the run:
@@ -36,15 +42,18 @@ from ..util.validation import unit_vector
 
 # codes of the first kinds (the registry of every kind, its names and code: engine.walls)
 PLANE, CYLINDER_INNER, CYLINDER_OUTER, FRUSTUM, MESH = 0, 1, 2, 3, 4
-WALL_COLUMNS = 21
+WALL_COLUMNS = 29
 # named columns of a wall row
 W_KIND, W_POINT, W_AXIS, W_RADIUS, W_OMEGA, W_MATERIAL, W_ACTIVE = 0, slice(1, 4), slice(4, 7), 7, 8, 9, 10
 W_SEGMENT = slice(11, 15)  # frustum: z0, r0, z1, r1
 # mesh: cos and sin of its angle now, the angle and time of the last change of omega
 W_COS, W_SIN, W_ANGLE_REF, W_TIME_REF = 11, 12, 13, 14
 W_VELOCITY, W_ORIGIN = slice(15, 18), slice(18, 21)  # translation: point = origin + velocity t
+# a ramped wall: the ramp's duration [s], the full omega, velocity and its point at t = 0
+W_RAMP, W_RAMP_OMEGA, W_RAMP_VELOCITY, W_RAMP_ORIGIN = 21, 22, slice(23, 26), slice(26, 29)
 # the first column of the point, axis, velocity and origin, for compiled code reading them one by one
 W_PX, W_AX, W_VX, W_OX = 1, 4, 15, 18
+W_RVX, W_ROX = 23, 26  # the full velocity and the point at t = 0 of a ramped wall
 
 ROTATE, TRANSLATE = 0, 1
 BODY_KINDS = {"rotate": ROTATE, "translate": TRANSLATE}
@@ -59,6 +68,34 @@ def place_walls(table, time):
     for iw in range(table.shape[0]):
         for a in range(3):
             table[iw, W_PX + a] = table[iw, W_OX + a] + table[iw, W_VX + a] * time
+
+
+@njit(inline="always", cache=True)
+def ramp_motion(ramp, t):
+    """(rate at t as a fraction of the full rate, time at the full rate that turns or travels
+    as far) of a start from rest at constant acceleration over ``ramp`` seconds."""
+    if t < ramp:
+        return t / ramp, 0.5 * t * t / ramp
+    return 1.0, t - 0.5 * ramp
+
+
+@njit(cache=True)
+def ramp_walls(table, time):
+    """Every ramped wall's omega and velocity at ``time``, and the origin (a mesh: the angle)
+    that place_walls / place_meshes turn into its ramped point (angle) at ``time``."""
+    for iw in range(table.shape[0]):
+        ramp = table[iw, W_RAMP]
+        if ramp > 0.0:
+            f, s = ramp_motion(ramp, time)
+            table[iw, W_OMEGA] = table[iw, W_RAMP_OMEGA] * f
+            for a in range(3):
+                v = table[iw, W_RVX + a] * f
+                table[iw, W_VX + a] = v
+                # origin + v time (place_walls) is then o0 + v_full s
+                table[iw, W_OX + a] = table[iw, W_ROX + a] + table[iw, W_RVX + a] * s - v * time
+            if int(table[iw, W_KIND]) == MESH:  # mesh_angle at ``time`` is then omega_full s
+                table[iw, W_ANGLE_REF] = table[iw, W_RAMP_OMEGA] * s
+                table[iw, W_TIME_REF] = time
 
 
 @njit(inline="always", cache=True)

@@ -32,6 +32,8 @@ class PhysicsSpec:
         bounded_walls: frustum and annulus walls (engine.kinematics) compiled in (needs walls).
         translating_walls: walls that translate at a constant velocity compiled in (needs walls).
         mesh_walls: triangle-mesh walls (engine.mesh) compiled in (needs walls; 3D).
+        ramped_walls: walls whose omega and velocity ramp up from rest (a wall's ``ramp``,
+            engine.kinematics) compiled in (needs walls).
         normal_force_sum: keep each particle's sum of contact normal forces (pressure maps,
             force chains).
         energy_audit: integrate the power dissipated by contact damping, by the tangential force
@@ -54,6 +56,7 @@ class PhysicsSpec:
     bounded_walls: bool = False
     translating_walls: bool = False
     mesh_walls: bool = False
+    ramped_walls: bool = False
     bodies: bool = False
     periodic: bool = False
     normal_force_sum: bool = False
@@ -71,6 +74,8 @@ class PhysicsSpec:
             raise ValueError("bounded_walls: needs walls=True")
         if self.translating_walls and not self.walls:
             raise ValueError("translating_walls: needs walls=True")
+        if self.ramped_walls and not self.walls:
+            raise ValueError("ramped_walls: needs walls=True")
         if self.mesh_walls and not (self.walls and self.dim == 3):
             raise ValueError("mesh_walls: needs walls=True and dim=3")
         if self.force_sum not in FORCE_SUMS:

@@ -40,11 +40,16 @@ from .kinematics import (
     W_ORIGIN,
     W_POINT,
     W_RADIUS,
+    W_RAMP,
+    W_RAMP_OMEGA,
+    W_RAMP_ORIGIN,
+    W_RAMP_VELOCITY,
     W_SEGMENT,
     W_TIME_REF,
     W_VELOCITY,
     WALL_COLUMNS,
     mesh_angle,
+    ramp_walls,
 )
 from .mesh import mesh_geometry, points_in_frame, signed_clearance
 
@@ -55,7 +60,8 @@ TORUS_RING, TORUS_TUBE = _S, _S + 1
 TORUS_INNER, TORUS_OUTER = 5, 6
 
 # keys every analytic kind takes (its axis as ``axis`` or ``normal``, either is accepted)
-COMMON_KEYS = frozenset({"kind", "point", "normal", "axis", "omega", "velocity", "material"})
+COMMON_KEYS = frozenset({"kind", "point", "normal", "axis", "omega", "velocity", "ramp",
+                         "material"})
 
 
 # ---- contact functions ---------------------------------------------------------------------
@@ -358,9 +364,28 @@ def wall_table(sim, walls):
         row[W_ACTIVE] = 1.0
         row[W_VELOCITY] = wall_velocity(sim.spec, key, wall.get("velocity", (0.0, 0.0, 0.0)))
         row[W_ORIGIN] = row[W_POINT]
+        ramp = wall_ramp(sim.spec, key, wall.get("ramp", 0.0))
+        if ramp > 0.0:  # the full motion kept; ramp_walls sets the motion of the moment
+            row[W_RAMP], row[W_RAMP_OMEGA] = ramp, row[W_OMEGA]
+            row[W_RAMP_VELOCITY], row[W_RAMP_ORIGIN] = row[W_VELOCITY], row[W_POINT]
     if len(walls) and not sim.spec.walls:
         raise ValueError("walls: given but spec.walls is false")
+    if (table[:, W_RAMP] > 0.0).any():
+        ramp_walls(table, 0.0)
     return table
+
+
+def wall_ramp(spec, key, ramp):
+    """A wall's ramp [s] (0: at its omega and velocity from the start), checked."""
+    try:
+        ramp = float(ramp)
+    except (TypeError, ValueError):
+        ramp = math.nan
+    if not (math.isfinite(ramp) and ramp >= 0.0):
+        raise ValueError(f"{key}.ramp: must be a finite time >= 0 [s]")
+    if ramp > 0.0 and not spec.ramped_walls:
+        raise ValueError(f"{key}.ramp: ramped walls need PhysicsSpec(ramped_walls=True)")
+    return ramp
 
 
 def wall_velocity(spec, key, velocity):
@@ -380,6 +405,9 @@ def wall_velocity(spec, key, velocity):
 def set_wall(sim, index, point=None, axis=None, radius=None, omega=None, velocity=None):
     """Simulation.set_wall."""
     row = sim.walls[index]
+    if row[W_RAMP] > 0.0 and not (point is None and omega is None and velocity is None):
+        raise ValueError(f"walls[{index}]: a ramped wall's point, omega and velocity follow its "
+                         "ramp; set_wall changes only its axis and radius")
     if velocity is not None:
         row[W_VELOCITY] = wall_velocity(sim.spec, f"walls[{index}]", velocity)
     if point is not None:

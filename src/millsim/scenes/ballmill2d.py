@@ -443,4 +443,6 @@ class BallMillCase(Case):
 
 
 register(Scene("ballmill2d", "2D ball mill with lifters: comminution rate, maps, force chains "
-               "(Buchholtz et al. 2000)", PARAMS, BallMillCase, (_check,)))
+               "(Buchholtz et al. 2000)", PARAMS, BallMillCase, (_check,),
+               no_walls="a 2D mill of disks, whose drum and lifters are particles of a body; "
+               "no wall is compiled into it"))

@@ -13,7 +13,7 @@ import numbers
 import re
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 from ..engine import BYTES_PER_PARTICLE, StepPolicy
@@ -37,6 +37,7 @@ class Param:
     lo_open: bool = False
     hi_open: bool = False
     choices: tuple = ()
+    sweepable = True  # a list of values in the study config sweeps it (the walls' is one value)
 
     @property
     def kind(self):
@@ -114,6 +115,10 @@ class Scene:
     params: tuple
     build: Callable  # build(values: dict) -> driver.Case
     checks: tuple = field(default=())  # callables(values) raising ValueError on inconsistent combos
+    # the materials a wall from the config may name (values -> names; scenes/config_walls.py);
+    # None: the scene takes no walls from the config, for the reason ``no_walls``
+    wall_materials: Callable = None
+    no_walls: str = "it names no materials for them (Scene.wall_materials)"
 
     def run(self, values, ctx=None, out=None):
         """Drive one case with resolved ``values`` (see :func:`~millsim.scenes.driver.drive`)."""
@@ -130,6 +135,10 @@ class Scene:
                                  f"{', '.join(sorted(known))}")
         values = {p.name: p.parse(overrides[p.name]) if p.name in overrides else p.default
                   for p in self.params}
+        if "walls" in values:
+            from .config_walls import check_wall_materials
+
+            check_wall_materials(self, values)
         for check in self.checks:
             check(values)
         return values
@@ -294,6 +303,12 @@ REGISTRY: dict = {}
 
 
 def register(scene: Scene) -> Scene:
+    """Register ``scene``, with the ``walls`` parameter every scene takes (scenes/config_walls.py)
+    added to its parameters."""
+    from .config_walls import WALLS_PARAM
+
+    if "walls" not in {p.name for p in scene.params}:
+        scene = replace(scene, params=(*scene.params, WALLS_PARAM))
     REGISTRY[scene.name] = scene
     return scene
 

@@ -45,6 +45,7 @@ from ..models.breakage import progeny_families, tavares, tavares_materials
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement
 from ..models.breakage.replacement import product_passing as replacement_passing
 from .base import TIME_STEP_PARAMS, Param, Scene, record_steps, register, step_policy
+from .config_walls import scene_walls
 from .driver import Case, Output, Series
 
 G = 9.81
@@ -327,13 +328,14 @@ class BedImpactCase(Case):
                 + values["holder_gap"] * d
             self.walls.append(dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 0, 1),
                                    radius=radius_h, material="steel"))
+        self.spec, self.walls = scene_walls(values, SPEC, self.walls)
         self.skin = 0.1 * d
         # The drop's step follows from the sizes, not the positions: it (dt above the limit) and
         # the record interval against it are checked on the unsettled bed, before the settling.
         still = np.zeros((self.n_bed, 3))
         record_steps(values, self._drop_simulation(self.x_bed, still, still)[0].dt)
         # stage 1: settle (breakage off: every fracture energy stays infinite)
-        self.sim = self.settle = Simulation(SPEC, self.table, x=self.x_bed,
+        self.sim = self.settle = Simulation(self.spec, self.table, x=self.x_bed,
                                             radius=np.full(self.n_bed, r),
                                             material=values["material"], walls=self.walls,
                                             skin=self.skin, breakage=TavaresModel({}))
@@ -356,7 +358,7 @@ class BedImpactCase(Case):
         self.v_start = math.sqrt(max(self.v0**2 - 2.0 * G * gap, 0.0))
         x_ball = np.array([0.0, 0.0, top + gap + Rb])
         sim = Simulation(
-            SPEC, self.table, x=np.vstack([x_ball, x_set]),
+            self.spec, self.table, x=np.vstack([x_ball, x_set]),
             radius=np.concatenate([[Rb], np.full(self.n_bed, r)]),
             material=["steel"] + [name] * self.n_bed,
             v=np.vstack([[0.0, 0.0, -self.v_start], v_set]), w=np.vstack([np.zeros(3), w_set]),
@@ -525,4 +527,5 @@ class BedImpactCase(Case):
 
 
 register(Scene("bed_impact", "steel ball dropped on a particle bed, Tavares breakage "
-               "(Tavares et al. 2021)", PARAMS, BedImpactCase, (_check,)))
+               "(Tavares et al. 2021)", PARAMS, BedImpactCase, (_check,),
+               wall_materials=lambda values: (values["material"], "steel")))

@@ -28,6 +28,7 @@ from .base import (
     register,
     step_policy,
 )
+from .config_walls import scene_walls
 from .driver import Case, Output, Series
 
 PARAMS = (
@@ -124,6 +125,7 @@ class CollisionCase(Case):
         else:
             x, vs = [[r + gap / 2, 0.0, 0.0], [-r - gap / 2, 0.0, 0.0]], [vel / 2, -vel / 2]
             walls = []
+        spec, walls = scene_walls(v, spec, walls)
         self.sim = sim = Simulation(spec, table, x=x, radius=[r] * len(x), material="particle",
                                     v=vs, walls=walls, thickness=v["thickness"],
                                     step=step_policy(v, impact_speed=u),
@@ -183,4 +185,4 @@ class CollisionCase(Case):
 
 
 register(Scene("collision", "one binary impact (pair or wall) for analytic checks", PARAMS,
-               CollisionCase, (_check,)))
+               CollisionCase, (_check,), wall_materials=lambda values: ("particle",)))

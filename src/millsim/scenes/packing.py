@@ -17,6 +17,7 @@ from ..engine.mesh_io import first_hits, read_mesh
 from ..engine.spec import FORCE_SUMS
 from ..models import Interaction, Material, MaterialTable
 from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, check_particle_memory, register
+from .config_walls import scene_walls
 from .driver import Case, Output, Series
 
 PARAMS = (
@@ -185,7 +186,8 @@ def build(values):
     else:
         x = _lattice(values, rng)
     radius = np.full(len(x), values["radius"])
-    return Simulation(spec, table, x=x, radius=radius, material="grain", v=v, w=w, walls=_walls(values),
+    spec, walls = scene_walls(values, spec, _walls(values))
+    return Simulation(spec, table, x=x, radius=radius, material="grain", v=v, w=w, walls=walls,
                       skin=values["skin"], step=StepPolicy(dt=values["settle_dt"]))
 
 
@@ -281,4 +283,5 @@ class PackingCase(Case):
 
 
 register(Scene("packing", "spheres settled in a box or tumbling in a rotating drum (benchmark case)",
-               PARAMS, PackingCase, (_check, _check_liner)))
+               PARAMS, PackingCase, (_check, _check_liner),
+               wall_materials=lambda values: ("grain",)))

@@ -31,6 +31,7 @@ from .base import (
     register,
     step_policy,
 )
+from .config_walls import scene_walls
 from .driver import Case, Output, Series
 
 BEVERLOO_C, BEVERLOO_K = 0.58, 1.5
@@ -114,6 +115,7 @@ class SiloCase(Case):
                  dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 0, 1), radius=rs,
                       material="grain")]
         impact = math.sqrt(2.0 * G * v["pour_height"])
+        spec, walls = scene_walls(v, spec, walls)
         self.sim = sim = Simulation(spec, table, x=x, radius=radius, material="grain",
                                     walls=walls, gravity=(0.0, 0.0, -G),
                                     step=step_policy(v, impact_speed=2.0 * impact),
@@ -204,4 +206,5 @@ class SiloCase(Case):
 
 
 register(Scene("silo", "flat-bottomed silo poured full and discharged through its orifice: mass "
-               "flow rate against Beverloo's correlation", PARAMS, SiloCase, (_check,)))
+               "flow rate against Beverloo's correlation", PARAMS, SiloCase, (_check,),
+               wall_materials=lambda values: ("grain",)))

@@ -64,6 +64,7 @@ from ..models.breakage import tavares_predictions as tv
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
 from ..util.stats import binomial_interval, bootstrap_interval
 from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
+from .config_walls import scene_walls
 from .driver import Case, Output
 
 SPEC = PhysicsSpec(dim=3, walls=True, gravity=False)
@@ -201,8 +202,10 @@ def build(values):
         (mat.name, "steel"): Interaction(restitution=values["restitution"], friction=values["friction"]),
         ("steel", "steel"): Interaction(restitution=0.5, friction=0.5)})
     seed = case_seed(values)
-    sim = Simulation(SPEC, table, x=x, radius=radius, material=material, v=v, gravity=(0, 0, 0),
-                     walls=[{"kind": "plane", "point": (0, 0, 0), "normal": (0, 0, 1), "material": "steel"}],
+    spec, walls = scene_walls(values, SPEC, [dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1),
+                                                  material="steel")])
+    sim = Simulation(spec, table, x=x, radius=radius, material=material, v=v, gravity=(0, 0, 0),
+                     walls=walls,
                      breakage=TavaresModel({mat.name: (mat.gamma, mat.e_min)}),
                      step=step_policy(values, impact_speed=max(speed, 0.1)),
                      # guard against numerical blow-up only: small unbreakable fragments squeezed
@@ -602,4 +605,5 @@ class SingleParticleCase(Case):
 
 register(Scene("single_particle", "single-particle impact, drop-weight and repeated-impact tests of "
                "the Tavares model against its analytic predictions "
-               "(Tavares et al. 2021, section 4.1)", PARAMS, SingleParticleCase, (_check,)))
+               "(Tavares et al. 2021, section 4.1)", PARAMS, SingleParticleCase, (_check,),
+               wall_materials=lambda values: (values["material"], "steel")))

@@ -36,6 +36,7 @@ from .base import (
     register,
     step_policy,
 )
+from .config_walls import scene_walls
 from .driver import Case, Output, Series
 from .stirred_observables import (
     AUDIT,
@@ -299,6 +300,7 @@ def build(values):
     if not values["slice"]:
         walls += [dict(kind="plane", point=(0, 0, 0), normal=(1, 0, 0), material="wall"),
                   dict(kind="plane", point=(g["length"], 0, 0), normal=(-1, 0, 0), material="wall")]
+    spec, walls = scene_walls(values, spec, walls)
     periodic = dict(box=((g["x_lo"], 0, 0), (g["length"], 0, 0))) if values["slice"] else {}
     r_min = 0.5 * values["bead_diameter_min"]
     sim = Simulation(spec, table, x=x, radius=radius, material=material, v=vel, w=w, body=body,
@@ -534,4 +536,5 @@ class StirredMillCase(Case):
 
 register(Scene("stirred_mill", "wet horizontal stirred media mill, perforated-disk agitator, pairwise "
                "lubrication: power draw, energy balance, typology (the LabStar LS1 paper)", PARAMS,
-               StirredMillCase, (_check,)))
+               StirredMillCase, (_check,),
+               wall_materials=lambda values: ("bead", "agitator", "wall")))

@@ -9,7 +9,7 @@ from numba import njit, prange
 from ..implicit import LP_WIDTH, LPP_WIDTH, RW_WALL_WIDTH, RW_WIDTH, lub_kernels
 from ..implicit_solve import lub_solver
 from ..jit_options import FAST, PRANGE_ONLY
-from ..kinematics import place_meshes, place_walls
+from ..kinematics import place_meshes, place_walls, ramp_walls
 from ..mesh import mesh_travel, with_mesh_candidates
 from ..models import NO_BREAKAGE, NO_FLUID, stable_identity
 from ..neighbours import rebuilt_contacts
@@ -232,7 +232,7 @@ class _Parts:
     # 0.68 loses writes made through a named tuple's attribute there), so err and the scratch
     # flags are taken out first.
     def _start_forces(self, spec, layout):
-        TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
+        TRANSLATING, MESHES, RAMPED = spec.translating_walls, spec.mesh_walls, spec.ramped_walls
         AUDIT, IMPLICIT = layout.audit, layout.implicit
         NEAR_WALLS, COLOUR = near_walls(spec, layout), spec.force_sum == "colour"
         near_walls_block, pair_block = self.near_walls_block, self.pair_block
@@ -263,6 +263,8 @@ class _Parts:
                     pair_block(b * slots // n_blocks, (b + 1) * slots // n_blocks, step0, 0.0, P,
                                C, R, err, S, bs, fp)
             t_start = t + k0 * dt
+            if RAMPED:
+                ramp_walls(W.table, t_start)
             if TRANSLATING:
                 place_walls(W.table, t_start)
             if MESHES:
@@ -291,7 +293,7 @@ class _Parts:
         return self._parallel(start_forces)
 
     def _advance(self, spec, layout):
-        TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
+        TRANSLATING, MESHES, RAMPED = spec.translating_walls, spec.mesh_walls, spec.ramped_walls
         IMPLICIT = layout.implicit
         NEAR_WALLS, COLOUR = near_walls(spec, layout), spec.force_sum == "colour"
         near_walls_block = self.near_walls_block
@@ -342,6 +344,8 @@ class _Parts:
                 last = step == n_steps - 1 or stop[0] != 0
                 t_end = t + (k0 + step + 1) * dt  # where the step's forces are evaluated
                 t_pose = t + (k0 + step + 2) * dt  # body particles' pose for the next step
+                if RAMPED:
+                    ramp_walls(W.table, t_end)
                 if TRANSLATING:
                     place_walls(W.table, t_end)
                 if MESHES:

@@ -19,6 +19,7 @@ from ..kinematics import (
     W_MATERIAL,
     W_OMEGA,
     W_PX,
+    W_RAMP,
     W_SIN,
     W_VX,
 )
@@ -287,7 +288,7 @@ def near_walls_kernel(spec):
     half the skin before a rebuild, as for the pair list); every other wall (moving, bounded)
     counts as near. Visiting only those gives the same numbers: a wall out of reach is apart
     at every step, and its state was reset when the particle last left it."""
-    TRANSLATING = spec.translating_walls
+    TRANSLATING, RAMPED = spec.translating_walls, spec.ramped_walls
 
     def near_walls_block(blk, P, W, R, S):
         x_ref, near = P.x_ref, S.wall_near
@@ -302,7 +303,8 @@ def near_walls_kernel(spec):
                     continue
                 static = SKIP_WHEN_FAR[kind] and not (
                     TRANSLATING and (wall[W_VX] != 0.0 or wall[W_VX + 1] != 0.0
-                                     or wall[W_VX + 2] != 0.0))
+                                     or wall[W_VX + 2] != 0.0)) and not (
+                    RAMPED and wall[W_RAMP] > 0.0)  # at rest at t = 0, not for long
                 if static:
                     gap = wall_contact(wall, x_ref[i, 0], x_ref[i, 1], x_ref[i, 2],
                                        P.radius[i] + reach)[0]
