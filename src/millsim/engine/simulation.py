@@ -35,6 +35,7 @@ from .particles import (
     tag_array,
 )
 from .spec import PhysicsSpec, chunk_runner
+from .spectra import SpectraBins, close_open, collision_spectra, spectra_accumulators
 from .state import (
     Accumulators,
     BodyArrays,
@@ -123,12 +124,14 @@ class Simulation:
             or None; their hooks are compiled into the loop only when given.
         tags: {name: per-particle array} of the caller's, kept in step with added and removed
             particles (``sim.tags[name]``).
+        spectra: :class:`~millsim.engine.spectra.SpectraBins` of the collision spectra
+            (``spec.collision_spectra``; default ``SpectraBins()``).
     """
 
     def __init__(self, spec: PhysicsSpec, table, x, radius, material, *, v=None, w=None,
                  body=None, walls=(), bodies=(), gravity=(0.0, 0.0, -9.81), box=None, skin=None,
                  thickness=1.0, step=DEFAULT_STEP, guards=Guards(), breakage=None, fluid=None,
-                 tags=None):
+                 tags=None, spectra=None):
         self.spec, self.table, self.law = spec, table, table.law
         if spec.rolling_friction and self.law.rolling_column < 0:
             raise ValueError(f"rolling_friction: contact_law {table.contact_law!r} has no rolling "
@@ -197,6 +200,13 @@ class Simulation:
         # integrates trapezoidally; 0 at the start, NaN = unknown after a change of the particles)
         self.accumulators = Accumulators(np.zeros(4, dtype=np.int64), np.zeros(4, dtype=np.int64),
                                          np.zeros(2 * N_AUDIT), np.zeros(1, dtype=np.int64))
+        if spectra is not None and not spec.collision_spectra:
+            raise ValueError("spectra: needs PhysicsSpec(collision_spectra=True)")
+        self.spectra_bins = (spectra if spectra is not None else SpectraBins()) \
+            if spec.collision_spectra else None
+        if self.spectra_bins is not None:
+            self.accumulators = spectra_accumulators(self.accumulators, self.spectra_bins,
+                                                     len(self.pair_params))
         # breakage decisions, a row each (the model names the columns); grows inside the loop
         self.events = np.zeros((64, breakage.event_columns if breakage else 1))
         nb, nw = len(self.bodies), len(self.walls)
@@ -363,11 +373,15 @@ class Simulation:
 
     def disable_wall(self, index):
         """Take wall ``index`` away: no contact, no lubrication, no load from now on."""
+        if self.spectra_bins is not None:  # its collisions end here (half a step to come)
+            close_open(self, wall=index, tail=self.dt)
         set_wall_active(self, index, False)
 
     def enable_wall(self, index):
         """Put wall ``index`` (back) in place, with no contact history (e.g. a silo's bottom once
         its gate is taken away)."""
+        if self.spectra_bins is not None:
+            close_open(self, wall=index, tail=self.dt)
         set_wall_active(self, index, True)
 
     def mesh_clearance(self, points):
@@ -399,7 +413,10 @@ class Simulation:
 
     # ---- adding and removing particles (between chunks) ---------------------------------------
     def remove_particles(self, mask):
-        """Remove particles where ``mask`` is true; contact state of surviving pairs is kept."""
+        """Remove particles where ``mask`` is true; contact state of surviving pairs is kept
+        (their open collisions are counted, engine.spectra)."""
+        if self.spectra_bins is not None:
+            close_open(self, removed=mask)
         remove_particles(self, mask)
 
     def add_particles(self, x, radius, material, v=None, w=None, tags=None, parent_ids=None):
@@ -435,6 +452,8 @@ class Simulation:
         p.acc[:] = 0.0
         p.alpha[:] = 0.0
         p.gear[:] = 0.0
+        if self.spectra_bins is not None:  # the wall contacts' collisions end here
+            close_open(self)
         self._W.hist[:] = 0.0
         if self._mesh_geometry:
             self._W.mesh_hist[:] = 0.0
@@ -478,6 +497,13 @@ class Simulation:
         if not self.spec.energy_audit:
             raise ValueError("energy_audit: spec.energy_audit is off")
         return dict(zip(AUDIT_TERMS, (float(e) for e in self.accumulators.dissipation[:N_AUDIT])))
+
+    def collision_spectra(self):
+        """Collision energy spectra since the start (spec.collision_spectra):
+        :class:`~millsim.engine.spectra.CollisionSpectra`."""
+        if self.spectra_bins is None:
+            raise ValueError("collision_spectra: spec.collision_spectra is off")
+        return collision_spectra(self, self.spectra_bins)
 
     @property
     def counters(self):

@@ -45,6 +45,9 @@ class PhysicsSpec:
             particle, and each contact is added straight into both particles' sums, colour by
             colour (faster; other rounding than ``records``; no breakage model, fluid or energy
             audit; docs/engine.md, "Force sums").
+        collision_spectra: record each collision's dissipated normal and tangential energy (the
+            energy audit's contact terms over the contact's life) in log-spaced bins per contact
+            type when the contact ends (engine.spectra; needs energy_audit).
     """
 
     dim: int = 3
@@ -62,6 +65,7 @@ class PhysicsSpec:
     normal_force_sum: bool = False
     energy_audit: bool = False
     force_sum: str = "records"
+    collision_spectra: bool = False
 
     def __post_init__(self):
         if self.dim not in (2, 3):
@@ -83,6 +87,9 @@ class PhysicsSpec:
         if self.force_sum == "colour" and self.energy_audit:
             raise ValueError("force_sum: 'colour' keeps no slot records, which energy_audit "
                              "reads; use 'records'")
+        if self.collision_spectra and not self.energy_audit:
+            raise ValueError("collision_spectra: needs energy_audit=True (the spectra bin the "
+                             "audit's dissipation per contact)")
 
     @property
     def clip_normal(self):

@@ -68,6 +68,15 @@ ColourScratch = namedtuple("ColourScratch", [*Scratch._fields, "force", "colour_
 # energy per audit term [J] then the last step's power per term [W]; n_events: rows used in
 # the events table.
 Accumulators = namedtuple("Accumulators", ["counters", "err", "dissipation", "n_events"])
+# With collision spectra (engine.spectra; separate types, so that other runs' loop is typed and
+# compiled as before): the accumulators add the counts (table pair/wall, material a, material b,
+# normal/tangential, bin incl. under- and overflow), the energy binned per (table, a, b,
+# normal/tangential) [J] and the bins (log lo, bins per unit of log E); the scratch adds each
+# block's share of a step's counts and energies.
+SpectraAccumulators = namedtuple("SpectraAccumulators", [*Accumulators._fields, "spectra_counts",
+                                                         "spectra_energy", "spectra_bins"])
+SpectraScratch = namedtuple("SpectraScratch", [*Scratch._fields, "spectra_counts",
+                                               "spectra_energy", "spectra_bins"])
 
 
 def disk_or_sphere_mass(radius, density, dim, thickness):

@@ -10,6 +10,7 @@ from numba import njit
 
 from ..neighbours import min_image
 from .layout import BLOCK, ERR_OVERLAP, SLOT_BASE
+from .spectra import forgotten, spectra_end, spectra_step
 
 
 @njit(cache=True)
@@ -153,7 +154,7 @@ def pair_block_kernel(pair_places):
     def pair_block(lo, hi, step, dt, P, C, R, err, S, bs, fp):
         """Pair pass for the slots at places lo to hi - 1 of the pass order (S.pair_slot)."""
         pair_places(lo, hi, step, dt, P, S.pair_slot, S.pair_owner, C.nbr, C.state, R, err, S.out,
-                    S.proll, bs, fp, S.stop, S.lub_slots)
+                    S.proll, bs, fp, S.stop, S.lub_slots, S)
 
     return pair_block
 
@@ -209,14 +210,17 @@ def pair_places_kernel(spec, law, brk, flu, layout, contact, geometry):
     COL_AUD = layout.slot_audit
     COL_D = COL_AUD + 3 if AUDIT else -1
     BASE = SPRING  # the breakage model's first contact-state column
+    SPECTRA, SP, COL_SP = layout.spectra, layout.contact_spectra, layout.slot_spectra
     reference, apart_hook = brk.pair_reference, brk.pair_apart
     override, loaded = brk.pair_override, brk.pair_loaded
     pair_fluid = flu.pair_fluid
     separation, contact_normal, contact_velocity = geometry
 
     def pair_places(lo, hi, step, dt, P, slot, owner, nbr, state, R, err, out, proll, bs, fp,
-                    stop, rows):
+                    stop, rows, S):
         x, v, w, radius = P.x, P.v, P.w, P.radius
+        if SPECTRA:
+            forget = forgotten(S.audit_part)
         for q in range(lo, hi):
             i, k = owner[q], slot[q]
             j = nbr[k]
@@ -232,6 +236,8 @@ def pair_places_kernel(spec, law, brk, flu, layout, contact, geometry):
                     state[k, c] = 0.0
                 for a in range(SLOT):
                     o[a] = 0.0
+                if SPECTRA:  # a collision that ended: the particle pass counts it (gather)
+                    o[COL_SP], o[COL_SP + 1], o[COL_SP + 2] = spectra_end(state[k], SP, dt, forget)
                 if ROLLING:
                     proll[k, :, :] = 0.0
                 dist = math.sqrt(dist2)
@@ -292,6 +298,10 @@ def pair_places_kernel(spec, law, brk, flu, layout, contact, geometry):
                     o[COL_AUD + 2] -= (proll[k, 0, 0] * w[i, 0] + proll[k, 0, 1] * w[i, 1]
                                        + proll[k, 0, 2] * w[i, 2] + proll[k, 1, 0] * w[j, 0]
                                        + proll[k, 1, 1] * w[j, 1] + proll[k, 1, 2] * w[j, 2])
+            if SPECTRA:  # this contact's share of the audit's powers, over its lifetime
+                state[k, SP] = 1.0
+                spectra_step(state[k], SP, o[COL_AUD], o[COL_AUD + 1] + o[COL_AUD + 2], dt,
+                             forget)
 
     return pair_places
 

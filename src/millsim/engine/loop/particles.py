@@ -9,6 +9,7 @@ from ..implicit import LP_FORCE, RW_ACT, RW_VJ, row_impulse, row_power
 from ..integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from ..kinematics import B_AX, B_CX, B_KIND, B_RAMP, ROTATE, W_PX, body_pose
 from .layout import BLOCK, ERR_NONFINITE, ERR_SPEED, N_AUDIT, SLOT_BASE
+from .spectra import PAIR, spectra_book
 
 
 @njit(cache=True)
@@ -83,6 +84,7 @@ def gather_kernel(spec, brk, layout):
     ROLLING, AUDIT, PRESSURE = spec.rolling_friction, layout.audit, spec.normal_force_sum
     FLUID = layout.fluid and not layout.implicit  # explicit lubrication torques in the record
     COL_BRK, COL_T, COL_AUD = SLOT_BASE, layout.slot_fluid, layout.slot_audit
+    SPECTRA, COL_SP = layout.spectra, layout.slot_spectra
     share = brk.slot_share
 
     if spec.force_sum == "colour":
@@ -118,6 +120,10 @@ def gather_kernel(spec, brk, layout):
             if AUDIT:
                 for a in range(N_AUDIT):
                     audit_part[blk, a] += o[COL_AUD + a]
+            if SPECTRA and o[COL_SP] != 0.0:  # the pair's collision ended in this step
+                ma, mb = P.material[i], P.material[C.nbr[k]]
+                spectra_book(S.spectra_counts, S.spectra_energy, S.spectra_bins, blk, PAIR,
+                             min(ma, mb), max(ma, mb), o[COL_SP + 1], o[COL_SP + 2])
             F0 += o[0]
             F1 += o[1]
             F2 += o[2]

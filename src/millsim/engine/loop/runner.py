@@ -13,7 +13,7 @@ from ..kinematics import place_meshes, place_walls, ramp_walls
 from ..mesh import mesh_travel, with_mesh_candidates
 from ..models import NO_BREAKAGE, NO_FLUID, stable_identity
 from ..neighbours import rebuilt_contacts
-from ..state import ColourScratch, Scratch
+from ..state import ColourScratch, Scratch, SpectraScratch
 from .layout import BLOCK, N_AUDIT, SLOT_BASE, Layout
 from .pairs import (
     colour_block_kernel,
@@ -34,6 +34,7 @@ from .particles import (
     start_block_kernel,
 )
 from .reductions import reduction_kernel
+from .spectra import spectra_reduce
 from .wall_pass import mesh_kernel, near_walls, near_walls_kernel, wall_force_kernel, walls_kernel
 
 
@@ -52,7 +53,7 @@ class ChunkRunner:
         self.advance, self.start_forces, self.collect = advance, start_forces, collect
         self.slot_width, self.audit, self.implicit = layout.slot_width, layout.audit, layout.implicit
         self.rolling, self.periodic, self.near_walls = rolling, periodic, near_walls
-        self.colour = colour
+        self.colour, self.spectra = colour, layout.spectra
 
     def __call__(self, n_steps, t, k0, dt, step0, P, C, W, B, R, A, bs, fp, events, prime):
         n = P.x.shape[0]
@@ -65,7 +66,8 @@ class ChunkRunner:
         # loads and velocities of the solve and its partial sums
         shared = dict(
             wall_part=np.zeros((n_blocks, max(n_walls, 1), 7)),
-            audit_part=np.zeros((n_blocks if self.audit else 0, N_AUDIT)),
+            audit_part=np.zeros((n_blocks if self.audit else 0,
+                                 N_AUDIT + 1 if self.spectra else N_AUDIT)),
             stop=np.zeros(1, dtype=np.int64), rebuild=np.zeros(1, dtype=np.int64),
             lub_rows=np.zeros((n if implicit else 0, n_walls, RW_WALL_WIDTH)),
             lub_particle=np.zeros((n if implicit else 0, LP_WIDTH)),
@@ -73,6 +75,11 @@ class ChunkRunner:
             wall_near=np.zeros(n if self.near_walls else 0, dtype=np.int64))
         if self.colour:
             shared["force"] = np.zeros((n, 7))
+        if self.spectra:  # collision spectra (loop.spectra): each block's share of a step
+            shared["audit_part"][:, N_AUDIT] = np.isnan(A.dissipation[N_AUDIT])
+            shared.update(spectra_counts=np.zeros((n_blocks, *A.spectra_counts.shape), np.int64),
+                          spectra_energy=np.zeros((n_blocks, A.spectra_energy.shape[0])),
+                          spectra_bins=A.spectra_bins)
         S = self._scratch(C, shared, P, R)
         if prime:
             self.start_forces(t, k0, dt, step0, P, C, W, B, R, A, S, bs, fp, True)
@@ -97,6 +104,8 @@ class ChunkRunner:
                                 fp)
             self._springs_back(C, S)
         A.counters[1] += step
+        if self.spectra:  # the counts are integers: summed once a chunk, in any order
+            A.spectra_counts[:] += shared["spectra_counts"].sum(axis=0)
         return step, C, W, events
 
     def _scratch(self, C, shared, P, R):
@@ -117,7 +126,8 @@ class ChunkRunner:
         slot, owner = pair_pass_order(C.start,
                                       touching_slots(C.start, C.nbr, P.x, P.radius, R.box_len),
                                       (P.x.shape[0] + BLOCK - 1) // BLOCK)
-        return Scratch(pair_slot=slot, pair_owner=owner,
+        scratch = SpectraScratch if self.spectra else Scratch
+        return scratch(pair_slot=slot, pair_owner=owner,
                        out=np.empty((slots, self.slot_width)),
                        proll=np.empty((slots if self.rolling else 0, 2, 3)),
                        lub_slots=np.zeros((slots if implicit else 0, RW_WIDTH)),
@@ -233,7 +243,7 @@ class _Parts:
     # flags are taken out first.
     def _start_forces(self, spec, layout):
         TRANSLATING, MESHES, RAMPED = spec.translating_walls, spec.mesh_walls, spec.ramped_walls
-        AUDIT, IMPLICIT = layout.audit, layout.implicit
+        AUDIT, IMPLICIT, SPECTRA = layout.audit, layout.implicit, layout.spectra
         NEAR_WALLS, COLOUR = near_walls(spec, layout), spec.force_sum == "colour"
         near_walls_block, pair_block = self.near_walls_block, self.pair_block
         colour_block, particle_block = self.colour_block, self.particle_block
@@ -285,6 +295,8 @@ class _Parts:
                     power += audit_part[blk, a]
                     audit_part[blk, a] = 0.0
                 A.dissipation[N_AUDIT + a] = power
+            if SPECTRA:  # contacts found apart at the start end their collisions
+                spectra_reduce(S.spectra_energy, A.spectra_energy, audit_part, n_blocks)
             for blk in range(wall_part.shape[0]):
                 for k in range(wall_part.shape[1]):
                     for c in range(wall_part.shape[2]):
@@ -294,7 +306,7 @@ class _Parts:
 
     def _advance(self, spec, layout):
         TRANSLATING, MESHES, RAMPED = spec.translating_walls, spec.mesh_walls, spec.ramped_walls
-        IMPLICIT = layout.implicit
+        IMPLICIT, SPECTRA = layout.implicit, layout.spectra
         NEAR_WALLS, COLOUR = near_walls(spec, layout), spec.force_sum == "colour"
         near_walls_block = self.near_walls_block
         pair_block, particle_block = self.pair_block, self.particle_block
@@ -373,6 +385,8 @@ class _Parts:
                     for blk in prange(n_blocks):
                         start_block(np.int64(blk), t_end, -dt, P, B)
                 reductions(t_end, dt, P, B, W, A.dissipation, wall_part, audit_part, n_blocks)
+                if SPECTRA:  # collision spectra: the blocks' energies, in block order
+                    spectra_reduce(S.spectra_energy, A.spectra_energy, audit_part, n_blocks)
                 step += 1
                 if err[0] != 0 or stop[0] != 0 or (rebuild[0] != 0 and not last):
                     break

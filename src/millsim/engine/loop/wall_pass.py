@@ -26,6 +26,7 @@ from ..kinematics import (
 from ..mesh import MESH_SLOTS, SAME_CONTACT_COS, TAG_COLUMNS, owns, rotate, triangle_contact
 from ..walls import SKIP_WHEN_FAR, wall_contact, wall_contact_bounded
 from .layout import BLOCK, ERR_MESH_SLOTS, ERR_OVERLAP
+from .spectra import forgotten, spectra_close_wall, spectra_step
 
 
 def wall_force_kernel(spec, layout, contact):
@@ -33,6 +34,7 @@ def wall_force_kernel(spec, layout, contact):
     overlap xi (xw of it counts), unit normal n wall -> particle, the surface's velocity u; the
     force on i, the torque about its centre and the lever arm ai."""
     ROLLING, AUDIT = spec.rolling_friction, layout.audit
+    SPECTRA, SPW = layout.spectra, layout.wall_spectra
 
     def wall_force(i, xi, xw, n0, n1, n2, u0, u1, u2, p, hist, k, dt, P, audit_part, blk):
         v, w = P.v, P.w
@@ -65,6 +67,12 @@ def wall_force_kernel(spec, layout, contact):
                 c2 -= m * w[i, 2]
                 if AUDIT:
                     audit_part[blk, 2] += m * wn * wn
+        if SPECTRA:  # collision spectra: this contact's share of the audit's powers
+            pt = -(f0 * vr0 + f1 * vr1 + f2 * vr2)  # centre and rotational slip together
+            if ROLLING:
+                pt += mr * ri * math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+            spectra_step(hist[k], SPW, -(fn - fn_el) * (vr0 * n0 + vr1 * n1 + vr2 * n2), pt, dt,
+                         forgotten(audit_part))
         return fn, g0, g1, g2, c0, c1, c2, ai
 
     return wall_force
@@ -101,6 +109,7 @@ def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
     # (with the vector registers saved around it) per particle and wall
     HIST = layout.wall_columns
     NEAR_WALLS = near_walls(spec, layout)
+    SPECTRA, SPW = layout.spectra, layout.wall_spectra  # collision spectra (loop.spectra)
 
     def walls(i, step, dt, P, W, R, err, S, blk, bs, fp, F0, F1, F2, T0, T1, T2, FS, acc):
         x, v, w = P.x, P.v, P.w
@@ -150,6 +159,8 @@ def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
                 wp[5] -= cp0 * g1 - cp1 * g0 + c2
                 wp[6] -= pw
             if xi <= 0.0:
+                if SPECTRA:  # collision spectra: the collision with the wall ends
+                    spectra_close_wall(W.hist[i, iw], SPW, dt, S, blk, P.material[i])
                 for c in range(HIST):
                     W.hist[i, iw, c] = 0.0
                 wall_apart(bs, W.hist, i, iw, SPRING, xi)
@@ -157,7 +168,11 @@ def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
             # Progeny created reaching into a wall: only overlap beyond the creation state counts.
             xw, touching = reference(bs, W.hist, i, iw, SPRING, xi)
             if not touching:
+                if SPECTRA:  # collision spectra: within its reference, the collision ends
+                    spectra_close_wall(W.hist[i, iw], SPW, dt, S, blk, P.material[i])
                 continue
+            if SPECTRA:  # collision spectra: the wall's material, the contact open
+                W.hist[i, iw, SPW] = wall[W_MATERIAL] + 1.0
             if xw > R.max_overlap * ri and err[0] == 0:
                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
             p = R.pair_params[P.material[i], int(wall[W_MATERIAL])]
@@ -189,6 +204,7 @@ def mesh_kernel(spec, layout, wall_force):
     PRESSURE = spec.normal_force_sum
     TAG = layout.wall_columns
     HIST = TAG + TAG_COLUMNS
+    SPECTRA, SPW = layout.spectra, layout.wall_spectra  # collision spectra (loop.spectra)
 
     def meshes(i, step, dt, P, W, R, err, S, blk, F0, F1, F2, T0, T1, T2, FS):
         M = W
@@ -251,6 +267,8 @@ def mesh_kernel(spec, layout, wall_force):
             u1 = om * (wall[W_AX + 2] * d0 - wall[W_AX] * d2) + wall[W_VX + 1]
             u2 = om * (wall[W_AX] * d1 - wall[W_AX + 1] * d0) + wall[W_VX + 2]
             p = R.pair_params[P.material[i], M.tri_material[t]]
+            if SPECTRA:  # collision spectra: the triangle's material, the contact open
+                hist[slot, SPW] = M.tri_material[t] + 1.0
             fn, g0, g1, g2, c0, c1, c2, ai = wall_force(i, xi, xi, n0, n1, n2, u0, u1, u2, p,
                                                         hist, slot, dt, P, S.audit_part, blk)
             F0 += g0
@@ -265,6 +283,8 @@ def mesh_kernel(spec, layout, wall_force):
                            wall)
         for q in range(MESH_SLOTS):  # contacts that ended
             if not (seen >> q) & 1 and hist[q, TAG + 3] != 0.0:
+                if SPECTRA:  # collision spectra: the collision with the mesh ends
+                    spectra_close_wall(hist[q], SPW, dt, S, blk, P.material[i])
                 for col in range(HIST):
                     hist[q, col] = 0.0
         return F0, F1, F2, T0, T1, T2, FS
