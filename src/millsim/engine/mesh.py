@@ -5,10 +5,10 @@ and loads, plus its triangles in :class:`MeshArrays`, stored in the mesh's own f
 is ``p(t) + R(theta(t)) y`` for the frame point y, with p(t) = origin + v t the wall's point and
 R the rotation by theta(t) = theta_ref + omega (t - t_ref) about the wall's axis through p. The
 triangles never move in that frame, so they are binned once in a uniform grid; each neighbour-list
-rebuild lists, per particle, the triangles within its radius plus the skin in the frame at that
-time (``rebuilt_mesh_candidates``), and the loop asks for a rebuild before the mesh's fastest
-point has travelled half the skin (loop ``advance``), so that with the particles' own half skin no
-contact is missed.
+rebuild lists, per particle, the triangles within its radius plus the skin (and a fluid's reach)
+in the frame at that time (``rebuilt_mesh_candidates``), and the loop asks for a rebuild before
+the mesh's fastest point has travelled half the skin (loop ``advance``), so that with the
+particles' own half skin no contact is missed.
 
 Contact with a triangle (Ericson, Real-Time Collision Detection, 2005, sec. 5.1.5: the closest
 point and whether it lies in the face, on an edge or at a vertex). Faces are one-sided: the mesh

@@ -173,9 +173,9 @@ class Simulation:
         if fluid is not None and spec.translating_walls:
             raise ValueError("translating_walls: not with a fluid (the wall lubrication knows "
                              "only a wall's turning)")
-        if self._mesh_geometry and (fluid is not None or breakage is not None):
-            raise ValueError("walls: mesh walls are dry and without breakage for now (no "
-                             "lubrication or progeny reference state at a triangle)")
+        if self._mesh_geometry and breakage is not None:
+            raise ValueError("walls: mesh walls are without breakage for now (no progeny "
+                             "reference state at a triangle)")
         self.layout = Layout.of(spec, self.law, breakage, fluid)
         # lubrication reaches h_max beyond contact: the neighbour list must hold those pairs
         self.reach = fluid.reach(float(np.max(radius))) if fluid else 0.0
@@ -268,7 +268,8 @@ class Simulation:
                                          self.spec.dim, self.box_lo, self.box_len,
                                          self.spec.periodic)
         if self._mesh_geometry:
-            self._W = with_mesh_candidates(self._W, self.particles, self.skin, self.time)
+            self._W = with_mesh_candidates(self._W, self.particles, self.skin + self.reach,
+                                           self.time)
 
     # ---- time step ----------------------------------------------------------------------------
     @property

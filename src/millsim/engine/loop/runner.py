@@ -15,6 +15,7 @@ from ..models import NO_BREAKAGE, NO_FLUID, stable_identity
 from ..neighbours import rebuilt_contacts
 from ..state import ColourScratch, Scratch, SpectraScratch
 from .layout import BLOCK, N_AUDIT, SLOT_BASE, Layout
+from .mesh_fluid import mesh_fluid_kernel
 from .pairs import (
     colour_block_kernel,
     colour_slots,
@@ -96,7 +97,7 @@ class ChunkRunner:
             C = rebuilt_contacts(P, C, R.skin + R.reach, R.dim, R.box_lo, R.box_len,
                                  self.periodic)
             if hasattr(W, "tri"):  # mesh walls (MeshWallArrays)
-                W = with_mesh_candidates(W, P, R.skin, t + (k0 + step) * dt)
+                W = with_mesh_candidates(W, P, R.skin + R.reach, t + (k0 + step) * dt)
             S.rebuild[0] = 0
             S = self._scratch(C, shared, P, R)
             A.counters[0] += 1
@@ -178,6 +179,8 @@ class _Parts:
         contact = self._inline(contact_kernel(spec, law))
         wall_force = self._inline(wall_force_kernel(spec, layout, contact))
         meshes = self._inline(mesh_kernel(spec, layout, wall_force)) if spec.mesh_walls else None
+        mesh_fluid = (self._inline(mesh_fluid_kernel(layout, flu))
+                      if spec.mesh_walls and layout.fluid else None)
         finish = self._inline(finish_kernel(spec))
         geometry = tuple(self._inline(fn) for fn in pair_geometry_kernels(spec))
         if spec.force_sum == "colour":
@@ -191,7 +194,8 @@ class _Parts:
         self.particle_block = self._jit(particle_block_kernel(
             spec, brk, layout,
             gather=self._inline(gather_kernel(spec, brk, layout)),
-            walls=self._inline(walls_kernel(spec, law, brk, flu, layout, wall_force, meshes)),
+            walls=self._inline(walls_kernel(spec, law, brk, flu, layout, wall_force, meshes,
+                                             mesh_fluid)),
             finish=finish))
         self.start_block = self._jit(start_block_kernel(spec))
         self.reductions = self._jit(reduction_kernel(spec, layout))

@@ -94,9 +94,10 @@ def _wall_reaction(wp, x, i, ai, n0, n1, n2, g0, g1, g2, u0, u1, u2, wall):
     wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
 
 
-def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
+def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes, mesh_fluid=None):
     """Contacts (and lubrication) of free particle i with every wall; the reaction on each wall
-    goes to its block's partial sums."""
+    goes to its block's partial sums. ``mesh_fluid``: the film at mesh walls (loop.mesh_fluid;
+    runs with mesh walls and a fluid)."""
     AUDIT, PRESSURE = layout.audit, spec.normal_force_sum
     IMPLICIT = layout.implicit
     SPRING = law.spring_columns
@@ -105,6 +106,7 @@ def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
     wall_apart = brk.wall_apart
     contact_with = wall_contact_bounded if spec.bounded_walls else wall_contact
     TRANSLATING, MESHES = spec.translating_walls, spec.mesh_walls
+    MESH_FLUID = MESHES and layout.fluid
     # a constant, so that the reset of a wall's state is a few stores, not a call to memset
     # (with the vector registers saved around it) per particle and wall
     HIST = layout.wall_columns
@@ -124,7 +126,10 @@ def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes):
                 if IMPLICIT:
                     row_absent(S.lub_rows[i, iw])
                 continue
-            if MESHES and int(wall[W_KIND]) == MESH:  # below, with every mesh at once
+            if MESHES and int(wall[W_KIND]) == MESH:  # contacts below, with every mesh at once
+                if MESH_FLUID:  # its film here: one per mesh and particle
+                    F0, F1, F2, T0, T1, T2 = mesh_fluid(i, iw, wall, P, W, R, S, blk, fp,
+                                                        F0, F1, F2, T0, T1, T2)
                 continue
             xi, n0, n1, n2, u0, u1, u2 = contact_with(wall, x[i, 0], x[i, 1], x[i, 2], ri)
             if TRANSLATING:  # the surface's velocity: turning (above) plus translation
