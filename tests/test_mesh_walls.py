@@ -15,7 +15,7 @@
 - A plate turning about its normal carries a particle as the analytic turning plane does (the
   mesh frame's angle, the surface velocity, the list rebuilds its travel asks for), and receives
   the same work; a rising plate as the translating plane.
-- Refusals: no spec flag, a fluid or breakage model, unknown keys.
+- Refusals: no spec flag, a fluid, unknown keys.
 """
 
 import math
@@ -417,13 +417,11 @@ def test_a_pour_keeps_clear_of_a_mesh_and_mesh_clearance_is_signed():
     assert (sim.mesh_clearance(sim.particles.x[new]) >= R).all()
 
 
-@pytest.mark.parametrize("model", ["fluid", "breakage"])
-def test_mesh_walls_refused_with_a_fluid_or_breakage(model):
-    from millsim.models import Lubrication, WeibullModel
+def test_mesh_walls_refused_with_a_fluid():
+    from millsim.models import Lubrication
 
     vertices, faces = box_mesh((-0.01, -0.01, -0.01), (0.01, 0.01, 0.0))
-    kw = (dict(fluid=Lubrication(eta=0.01, h_min=0.001, h_max=0.05)) if model == "fluid"
-          else dict(breakage=WeibullModel(1e-9)))
-    with pytest.raises(ValueError, match="walls: mesh walls are dry and without breakage"):
+    with pytest.raises(ValueError, match="walls: mesh walls are dry"):
         Simulation(MESH_SPEC, _table(), x=[[0.0, 0.0, 0.002]], radius=[R], material="m",
-                   walls=[mesh_wall(vertices, faces)], gravity=G, **kw)
+                   walls=[mesh_wall(vertices, faces)], gravity=G,
+                   fluid=Lubrication(eta=0.01, h_min=0.001, h_max=0.05))

@@ -167,7 +167,7 @@ class _Parts:
         self.key = key
         contact = self._inline(contact_kernel(spec, law))
         wall_force = self._inline(wall_force_kernel(spec, layout, contact))
-        meshes = self._inline(mesh_kernel(spec, layout, wall_force)) if spec.mesh_walls else None
+        meshes = self._inline(mesh_kernel(spec, brk, layout, wall_force)) if spec.mesh_walls else None
         finish = self._inline(finish_kernel(spec))
         geometry = tuple(self._inline(fn) for fn in pair_geometry_kernels(spec))
         if spec.force_sum == "colour":
