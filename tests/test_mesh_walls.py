@@ -15,7 +15,7 @@
 - A plate turning about its normal carries a particle as the analytic turning plane does (the
   mesh frame's angle, the surface velocity, the list rebuilds its travel asks for), and receives
   the same work; a rising plate as the translating plane.
-- Refusals: no spec flag, a breakage model, unknown keys.
+- Refusals: no spec flag, unknown keys.
 """
 
 import math
@@ -417,11 +417,3 @@ def test_a_pour_keeps_clear_of_a_mesh_and_mesh_clearance_is_signed():
     assert (sim.mesh_clearance(sim.particles.x[new]) >= R).all()
 
 
-def test_mesh_walls_refused_with_breakage():
-    """(With a fluid they run: tests/test_mesh_fluid.py.)"""
-    from millsim.models import WeibullModel
-
-    vertices, faces = box_mesh((-0.01, -0.01, -0.01), (0.01, 0.01, 0.0))
-    with pytest.raises(ValueError, match="walls: mesh walls are without breakage"):
-        Simulation(MESH_SPEC, _table(), x=[[0.0, 0.0, 0.002]], radius=[R], material="m",
-                   walls=[mesh_wall(vertices, faces)], gravity=G, breakage=WeibullModel(1e-9))

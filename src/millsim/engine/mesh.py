@@ -375,6 +375,40 @@ def mesh_overlaps(M, table, x, radius, body, time):
 
 
 @njit(cache=True)
+def open_owned_contacts(M, table, x, radius, particles, time):
+    """Tag a free history slot of each of ``particles`` for every mesh contact it owns at
+    ``time`` (needs current candidates), as the loop would at its next step: the same
+    candidates in the same order, so the loop then finds each in its slot. Returns (particle,
+    slot, overlap) of each, for a model to set its state there (progeny created reaching into a
+    mesh); a contact without a free slot is left to the loop's guard."""
+    tag = M.mesh_hist.shape[2] - TAG_COLUMNS
+    m = particles.shape[0] * MESH_SLOTS
+    who, where, overlap = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m)
+    n = 0
+    for i in particles:
+        hist = M.mesh_hist[i]
+        k0, k1 = M.cand_start[i], M.cand_start[i + 1]
+        for k in range(k0, k1):
+            t = M.cand_tri[k]
+            iw = M.tri_wall[t]
+            wall = table[iw]
+            if wall[W_ACTIVE] == 0.0:
+                continue
+            y0, y1, y2 = to_frame(wall, time, x[i, 0], x[i, 1], x[i, 2])
+            xi, m0, m1, m2, _ = triangle_contact(M, t, y0, y1, y2, radius[i])
+            if xi <= 0.0 or not owns(M, k0, k1, k, y0, y1, y2, radius[i]):
+                continue
+            for q in range(MESH_SLOTS):
+                if hist[q, tag + 3] == 0.0:
+                    hist[q, tag], hist[q, tag + 1], hist[q, tag + 2] = m0, m1, m2
+                    hist[q, tag + 3] = iw + 1
+                    who[n], where[n], overlap[n] = i, q, xi
+                    n += 1
+                    break
+    return who[:n], where[:n], overlap[:n]
+
+
+@njit(cache=True)
 def mesh_travel(W, time):
     """How far the fastest point of any active mesh has moved since its candidates were listed."""
     speed = 0.0

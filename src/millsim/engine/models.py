@@ -29,7 +29,9 @@ slot record of contact ``k``, ``col``: the model's first column in it):
 - ``pair_loaded(bs, state, k, base, o, col, fn, xi, material_i, material_j)``: after the force.
 - ``slot_share(bs, acc, o, col, side) -> acc``: the particle pass gathering slot k for i (side 0)
   or j (side 1); ``acc`` = (work, largest normal force, its direction x, y, z).
-- ``wall_reference(bs, hist, i, iw, base, xi) -> (xi_seen, touching)``.
+- ``wall_reference(bs, hist, i, iw, base, xi) -> (xi_seen, touching)``. The wall hooks see
+  ``hist[i, iw]``: particle i's state at analytic wall iw, or at its mesh contact in history
+  slot iw (``mesh_hist``; engine.loop.wall_pass.mesh_kernel).
 - ``wall_apart(bs, hist, i, iw, base, xi)``: particle i does not touch wall iw (xi <= 0; its
   contact state has just been cleared).
 - ``wall_loaded(bs, hist, i, iw, base, xi_seen, fn, g0, g1, g2, material_i, material_w, acc) -> acc``.

@@ -52,7 +52,7 @@ from .stepping import (
     smallest_for_fluid,
     step_particles,
 )
-from .walls import mesh_clearance, set_wall, set_wall_active, wall_table
+from .walls import mesh_clearance, open_mesh_contacts, set_wall, set_wall_active, wall_table
 
 __all__ = ["Guards", "Simulation", "SimulationError", "StepPolicy"]
 
@@ -173,9 +173,6 @@ class Simulation:
         if fluid is not None and spec.translating_walls:
             raise ValueError("translating_walls: not with a fluid (the wall lubrication knows "
                              "only a wall's turning)")
-        if self._mesh_geometry and breakage is not None:
-            raise ValueError("walls: mesh walls are without breakage for now (no progeny "
-                             "reference state at a triangle)")
         self.layout = Layout.of(spec, self.law, breakage, fluid)
         # lubrication reaches h_max beyond contact: the neighbour list must hold those pairs
         self.reach = fluid.reach(float(np.max(radius))) if fluid else 0.0
@@ -411,6 +408,18 @@ class Simulation:
     def wall_hist(self):
         """Per particle and wall, the contact state (tangential spring, model columns)."""
         return self._W.hist
+
+    @property
+    def mesh_hist(self):
+        """Per particle and mesh history slot, the contact state as in ``wall_hist``, then the
+        slot's tag (engine.mesh); None without mesh walls."""
+        return self._W.mesh_hist if self._mesh_geometry else None
+
+    def open_mesh_contacts(self, indices):
+        """Give each mesh contact the particles ``indices`` (just created) have now its history
+        slot; returns (particle, slot, overlap) arrays, for a model to set its state in
+        ``mesh_hist`` (empty without mesh walls)."""
+        return open_mesh_contacts(self, indices)
 
     # ---- adding and removing particles (between chunks) ---------------------------------------
     def remove_particles(self, mask):

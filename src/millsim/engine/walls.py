@@ -51,7 +51,7 @@ from .kinematics import (
     mesh_angle,
     ramp_walls,
 )
-from .mesh import mesh_geometry, points_in_frame, signed_clearance
+from .mesh import mesh_geometry, open_owned_contacts, points_in_frame, signed_clearance
 
 # first columns of the point, the axis and the kind's own columns (W_SEGMENT), for compiled code
 _P, _A, _S = W_POINT.start, W_AXIS.start, W_SEGMENT.start
@@ -436,6 +436,15 @@ def forget_mesh_contacts(sim, index):
     if sim._mesh_geometry:
         hist = sim._W.mesh_hist
         hist[hist[:, :, sim.layout.wall_columns + 3] == index + 1] = 0.0
+
+
+def open_mesh_contacts(sim, indices):
+    """Simulation.open_mesh_contacts."""
+    if not sim._mesh_geometry:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    p = sim.particles
+    return open_owned_contacts(sim._W, sim.walls, p.x, p.radius,
+                               np.atleast_1d(np.asarray(indices, np.int64)), sim.time)
 
 
 def mesh_clearance(sim, points):

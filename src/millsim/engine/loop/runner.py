@@ -178,7 +178,7 @@ class _Parts:
         self.key = key
         contact = self._inline(contact_kernel(spec, law))
         wall_force = self._inline(wall_force_kernel(spec, layout, contact))
-        meshes = self._inline(mesh_kernel(spec, layout, wall_force)) if spec.mesh_walls else None
+        meshes = self._inline(mesh_kernel(spec, brk, layout, wall_force)) if spec.mesh_walls else None
         mesh_fluid = (self._inline(mesh_fluid_kernel(layout, flu))
                       if spec.mesh_walls and layout.fluid else None)
         finish = self._inline(finish_kernel(spec))

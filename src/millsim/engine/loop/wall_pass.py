@@ -195,25 +195,28 @@ def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes, mesh_fluid=Non
             T2 += c2
             _wall_reaction(wall_part[blk, iw], x, i, ai, n0, n1, n2, g0, g1, g2, u0, u1, u2, wall)
         if MESHES:
-            F0, F1, F2, T0, T1, T2, FS = meshes(i, step, dt, P, W, R, err, S, blk, F0, F1, F2,
-                                                 T0, T1, T2, FS)
+            F0, F1, F2, T0, T1, T2, FS, acc = meshes(i, step, dt, P, W, R, err, S, blk, bs, F0,
+                                                      F1, F2, T0, T1, T2, FS, acc)
         return F0, F1, F2, T0, T1, T2, FS, acc
 
     return walls
 
 
-def mesh_kernel(spec, layout, wall_force):
+def mesh_kernel(spec, brk, layout, wall_force):
     """Contacts of free particle i with the triangles of every mesh wall (engine.mesh): the
     candidates listed at the last rebuild, one contact per touching surface (mesh.owns),
-    history slots matched by normal."""
+    history slots matched by normal. A breakage model's wall hooks see each slot as an analytic
+    wall's contact (``hist[i, slot]`` for ``hist[i, iw]``)."""
     PRESSURE = spec.normal_force_sum
-    TAG = layout.wall_columns
+    SPRING, TAG = layout.spring, layout.wall_columns
     HIST = TAG + TAG_COLUMNS
     SPECTRA, SPW = layout.spectra, layout.wall_spectra  # collision spectra (loop.spectra)
+    MODEL = layout.wall_model > 0  # a breakage model keeps wall-contact state: its hooks run
+    reference, loaded, wall_apart = brk.wall_reference, brk.wall_loaded, brk.wall_apart
 
-    def meshes(i, step, dt, P, W, R, err, S, blk, F0, F1, F2, T0, T1, T2, FS):
+    def meshes(i, step, dt, P, W, R, err, S, blk, bs, F0, F1, F2, T0, T1, T2, FS, acc):
         M = W
-        x = P.x
+        x, v = P.x, P.v
         hist = M.mesh_hist[i]
         ri = P.radius[i]
         k0, k1 = M.cand_start[i], M.cand_start[i + 1]
@@ -239,10 +242,11 @@ def mesh_kernel(spec, layout, wall_force):
                 continue
             if not owns(M, k0, k1, k, y0, y1, y2, ri):  # one contact per touching surface
                 continue
-            if xi > R.max_overlap * ri and err[0] == 0:
+            if not MODEL and xi > R.max_overlap * ri and err[0] == 0:
                 err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
             # the slot of this contact: the one whose normal is near, else a free one
             slot = -1
+            fresh = False
             for q in range(MESH_SLOTS):
                 if (not (seen >> q) & 1 and hist[q, TAG + 3] == iw + 1
                         and hist[q, TAG] * m0 + hist[q, TAG + 1] * m1 + hist[q, TAG + 2] * m2
@@ -253,6 +257,7 @@ def mesh_kernel(spec, layout, wall_force):
                 for q in range(MESH_SLOTS):
                     if not (seen >> q) & 1 and hist[q, TAG + 3] == 0.0:
                         slot = q
+                        fresh = True
                         break
             if slot < 0:
                 if err[0] == 0:
@@ -271,11 +276,31 @@ def mesh_kernel(spec, layout, wall_force):
             u0 = om * (wall[W_AX + 1] * d2 - wall[W_AX + 2] * d1) + wall[W_VX]
             u1 = om * (wall[W_AX + 2] * d0 - wall[W_AX] * d2) + wall[W_VX + 1]
             u2 = om * (wall[W_AX] * d1 - wall[W_AX + 1] * d0) + wall[W_VX + 2]
+            xw = xi
+            if MODEL:
+                if fresh:
+                    # Apart one step ago: the overlap then, the step's drift relative to the
+                    # surface taken back (velocity Verlet: x - dt (v - dt a / 2) exactly), is
+                    # what an analytic wall's apart hook keeps, so the loading work of the step
+                    # that makes the contact counts its whole approach as there.
+                    e0 = dt * (v[i, 0] - 0.5 * dt * P.acc[i, 0] - u0)
+                    e1 = dt * (v[i, 1] - 0.5 * dt * P.acc[i, 1] - u1)
+                    e2 = dt * (v[i, 2] - 0.5 * dt * P.acc[i, 2] - u2)
+                    wall_apart(bs, M.mesh_hist, i, slot, SPRING, xi + e0 * n0 + e1 * n1 + e2 * n2)
+                # progeny created reaching into a triangle: only overlap beyond that counts
+                xw, touching = reference(bs, M.mesh_hist, i, slot, SPRING, xi)
+                if not touching:
+                    continue
+                if xw > R.max_overlap * ri and err[0] == 0:
+                    err[0], err[1], err[2], err[3] = ERR_OVERLAP, step, i, -1 - iw
             p = R.pair_params[P.material[i], M.tri_material[t]]
             if SPECTRA:  # collision spectra: the triangle's material, the contact open
                 hist[slot, SPW] = M.tri_material[t] + 1.0
-            fn, g0, g1, g2, c0, c1, c2, ai = wall_force(i, xi, xi, n0, n1, n2, u0, u1, u2, p,
+            fn, g0, g1, g2, c0, c1, c2, ai = wall_force(i, xi, xw, n0, n1, n2, u0, u1, u2, p,
                                                         hist, slot, dt, P, S.audit_part, blk)
+            if MODEL:
+                acc = loaded(bs, M.mesh_hist, i, slot, SPRING, xw, fn, g0, g1, g2, P.material[i],
+                             M.tri_material[t], acc)
             F0 += g0
             F1 += g1
             F2 += g2
@@ -292,7 +317,7 @@ def mesh_kernel(spec, layout, wall_force):
                     spectra_close_wall(hist[q], SPW, dt, S, blk, P.material[i])
                 for col in range(HIST):
                     hist[q, col] = 0.0
-        return F0, F1, F2, T0, T1, T2, FS
+        return F0, F1, F2, T0, T1, T2, FS, acc
 
     return meshes
 

@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit
 
 from ...engine.events import room_for
+from ...engine.kinematics import MESH, W_KIND
 from ...engine.models import NO_BREAKAGE, ParticleModel, stable_identity
 from ...engine.walls import wall_contact
 from ...util.validation import check_range
@@ -267,7 +268,12 @@ class TavaresModel(ParticleModel):
             col = base + REF
             c.state[slots, col] = np.maximum(c.state[slots, col], np.maximum(overlap, 0.0))
         for iw, wall in enumerate(sim.walls):
+            if wall[W_KIND] == MESH:  # below, triangle by triangle
+                continue
             for i in indices:
                 xi = wall_contact(wall, p.x[i, 0], p.x[i, 1], p.x[i, 2], p.radius[i])[0]
                 if xi > 0:
                     sim.wall_hist[i, iw, base + REF] = xi
+        who, slot, xi = sim.open_mesh_contacts(indices)
+        if len(who):
+            sim.mesh_hist[who, slot, base + REF] = xi
