@@ -287,3 +287,20 @@ def test_eq13_product_spreads_recorded_spheres_and_conserves_mass():
     assert 0 < spread[0] < spread[1] < 1
     with pytest.raises(ValueError, match="unbreakable"):
         product_passing(sizes, masses, t10, ore, sieves, unbreakable="drop")
+
+
+def test_progeny_reference_at_a_bounded_wall_is_its_own_overlap():
+    """The creation overlap kept for progeny reaching into a frustum or annulus is that wall's
+    (an annulus ring measured as the cylinder of its outer radius would give the particle a
+    reference of the wrong size). The overlap with a horizontal annulus at z = 0 is r - z."""
+    table = MaterialTable([ORE, STEEL], {"*": Interaction(restitution=0.5, friction=0.5)})
+    r = 1e-3
+    spec = PhysicsSpec(dim=3, walls=True, bounded_walls=True, gravity=False)
+    ring = dict(kind="annulus", point=(0, 0, 0), normal=(0, 0, 1), radius=0.05,
+                inner_radius=0.01, material="steel")
+    sim = Simulation(spec, table, x=[[0.02, 0, 0.4 * r]], radius=[r], material="ore",
+                     breakage=TavaresModel({"ore": (5.0, 0.0)}), walls=[ring],
+                     guards=Guards(max_overlap=0.9))
+    sim.breakage.mark_creation_overlaps([0])
+    base = sim.layout.spring
+    assert sim.wall_hist[0, 0, base + 2] == pytest.approx(0.6 * r, rel=1e-12)

@@ -23,7 +23,7 @@ from numba import njit
 from ...engine.events import room_for
 from ...engine.kinematics import MESH, W_KIND
 from ...engine.models import NO_BREAKAGE, ParticleModel, stable_identity
-from ...engine.walls import wall_contact
+from ...engine.walls import wall_contact_bounded
 from ...util.validation import check_range
 from .damage import damage_fraction
 
@@ -271,7 +271,7 @@ class TavaresModel(ParticleModel):
             if wall[W_KIND] == MESH:  # below, triangle by triangle
                 continue
             for i in indices:
-                xi = wall_contact(wall, p.x[i, 0], p.x[i, 1], p.x[i, 2], p.radius[i])[0]
+                xi = wall_contact_bounded(wall, p.x[i, 0], p.x[i, 1], p.x[i, 2], p.radius[i])[0]
                 if xi > 0:
                     sim.wall_hist[i, iw, base + REF] = xi
         who, slot, xi = sim.open_mesh_contacts(indices)
