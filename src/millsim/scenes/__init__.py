@@ -17,7 +17,7 @@ from importlib import import_module, metadata
 from pathlib import Path
 
 SCENE_MODULES = ("collision", "packing", "ballmill2d", "stirred_mill", "bed_impact",
-                 "single_particle", "silo")
+                 "single_particle", "silo", "ballmill3d")
 ENTRY_POINT_GROUP = "millsim.scenes"
 
 _loaded_entry_points = False
