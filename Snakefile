@@ -43,6 +43,11 @@ if "single_particle" in config:
     include: "workflow/rules/single_particle.smk"
 
 
+if "ballmill3d" in config:
+
+    include: "workflow/rules/ballmill3d.smk"
+
+
 include: "workflow/rules/report.smk"
 
 

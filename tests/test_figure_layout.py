@@ -17,6 +17,7 @@ import xarray as xr
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.text import Text
+from test_ballmill3d_study import study as ballmill3d_study
 from test_plots import synthetic_case
 
 from millsim.analysis.aggregate import aggregate
@@ -218,6 +219,11 @@ def accuracy(tmp):
     return write_netcdf(tmp / "accuracy.nc", ds)
 
 
+def ballmill3d(tmp):
+    """The 3D ball mill's speed x filling sweep (tests/test_ballmill3d_study.py)."""
+    return ballmill3d_study(tmp)
+
+
 def snapshots(tmp):
     angle = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     wall = 0.05 * np.c_[np.cos(angle), np.sin(angle)]
@@ -241,6 +247,8 @@ FIGURES = {
     "stirred_mill_regions": stirred, "stirred_mill_velocity": stirred,
     "stirred_mill_friction": calibration, "stirred_mill_viscosity": calibration,
     "stirred_mill_prediction": calibration, "error_vs_runtime_{name}": accuracy,
+    "ballmill3d_power": ballmill3d, "ballmill3d_charge_shape": ballmill3d,
+    "ballmill3d_spectra": ballmill3d, "ballmill3d_breakage_rate": ballmill3d,
 }
 # the bed figures change shape with the study: also drawn from the paper-like matrix
 CASES = [(k, False) for k in FIGURES] + [(k, True) for k in FIGURES if k.startswith("bed_")]

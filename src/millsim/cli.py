@@ -277,13 +277,14 @@ def cmd_report(args):
 
     outputs = {"--json": args.json, "--rst": args.rst}
     inputs = [p for p in (args.ballmill, args.forcechain, args.bed, args.tavares, args.stirred,
-                          *(args.calibration or ())) if p]
+                          args.ballmill3d, *(args.calibration or ())) if p]
     for key, out in outputs.items():
         _check_out(out, inputs, key=key)
     _distinct(outputs)
     summary = report.summarise(args.ballmill, args.forcechain, args.bed, args.tavares,
                                args.stirred, args.calibration,
-                               command=shlex.join(["millsim", *sys.argv[1:]]))
+                               command=shlex.join(["millsim", *sys.argv[1:]]),
+                               ballmill3d_path=args.ballmill3d)
     _write_json(args.json, summary)
     from .io import atomic_target
 
@@ -359,6 +360,7 @@ def _report_parsers(sub):
     p.add_argument("--bed", help="bed-impact aggregate (.nc)")
     p.add_argument("--tavares", help="Tavares verification aggregate (.nc)")
     p.add_argument("--stirred", help="stirred-mill power aggregate (.nc)")
+    p.add_argument("--ballmill3d", help="3D ball-mill aggregate (.nc)")
     p.add_argument("--calibration", nargs=4,
                    metavar=("FRICTION_JSON", "VISCOSITY_JSON", "PREDICTION_CSV", "REFERENCE_CSV"),
                    help="stirred-mill calibration: the choices of stages 1 and 2, the table of "

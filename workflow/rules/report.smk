@@ -16,6 +16,8 @@ def report_inputs(wildcards=None):
         inputs["bed"] = "results/aggregate/bed_breakage.nc"
     if "single_particle" in config:
         inputs["tavares"] = "results/aggregate/tavares_verification.nc"
+    if "ballmill3d" in config:
+        inputs["ballmill3d"] = "results/aggregate/ballmill3d.nc"
     if "stirred_mill" in config:
         inputs["stirred"] = "results/aggregate/stirred_mill.nc"
         inputs["calibration"] = [

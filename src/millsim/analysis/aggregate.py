@@ -14,7 +14,7 @@ import pandas as pd
 import xarray as xr
 
 from ..io import case_parameters, read_case
-from . import ballmill, bed_impact
+from . import ballmill, ballmill3d, bed_impact
 
 __all__ = ["aggregate", "same_code", "stack_cases", "swept_parameters", "SCENE_SUMMARIES"]
 
@@ -113,6 +113,7 @@ def _unchanged(ds: xr.Dataset) -> xr.Dataset:
 # named here is stacked as it is
 SCENE_SUMMARIES: dict[str, tuple[Callable, Callable]] = {
     "ballmill2d": (ballmill.case_summary, ballmill.summary),
+    "ballmill3d": (ballmill3d.case_summary, ballmill3d.summary),
     "bed_impact": (_unchanged, bed_impact.summary),
 }
 

@@ -203,6 +203,41 @@ def tavares(path):
                 numbers={})
 
 
+def ballmill3d(path):
+    """Ball mill 3D: where the drive power peaks per filling against the 0.7-0.9 of critical and
+    Morrell's model (millsim.analysis.ballmill3d), and the energy balance of every case."""
+    from . import ballmill3d as bm3
+
+    ds = read_case(path)
+    lo, hi = bm3.PEAK_RANGE
+    headline = [("cases", f"{ds['n_over_nc'].size} speeds x {ds['filling'].size} fillings")]
+    verdicts = []
+    for j in ds["filling"].values:
+        sub = ds.sel(filling=j)
+        peak = float(sub["power_peak_speed"])
+        headline.append((f"power maximum, J = {_f(j)}", f"{NNC} = {_f(peak)} (Morrell's model: "
+                         f"{_f(float(sub['power_reference_peak_speed']))}; model x "
+                         f"{_f(float(sub['power_reference_scale']))} fits the power)"))
+        verdicts.append(dict(
+            study="ballmill3d", check=f"drive power peaks at {lo:g}-{hi:g} of critical, J = {_f(j)}",
+            rule=f"vertex of the parabola through the highest power and its neighbours in [{lo:g}, "
+                 f"{hi:g}] (millsim.analysis.ballmill3d.peak_position); n/a where the sweep does "
+                 "not bracket the maximum", value=f"{NNC} = {_f(peak)}",
+            passed=bool(lo <= peak <= hi) if np.isfinite(peak) else None))
+    err = ds["energy_balance_error"]
+    worst = float(err.values.flat[int(np.nanargmax(np.abs(err.values)))])
+    tol = bm3.ENERGY_BALANCE_TOLERANCE
+    verdicts.append(dict(
+        study="ballmill3d", check="energy balance of every case",
+        rule=f"|drive work - dissipation - change of kinetic and potential energy| <= {100 * tol:g}"
+             " % of the work (millsim.analysis.ballmill3d.ENERGY_BALANCE_TOLERANCE)",
+        value=f"largest {_f(100 * worst, 2)} %", passed=bool(abs(worst) <= tol)))
+    return dict(title="Ball mill 3D (speed x filling; Morrell 1996)", key="ballmill3d",
+                headline=headline, verdicts=verdicts, numbers=dict(
+                    speeds=ds["n_over_nc"].values.tolist(), fillings=ds["filling"].values.tolist(),
+                    power_peak_speed=ds["power_peak_speed"].values.tolist()))
+
+
 def stirred(path):
     """Stirred media mill power study: net power per case, typology, energy balance verdict."""
     ds = read_case(path)
@@ -343,12 +378,14 @@ def _read_json(path):
 # ---- the summary -----------------------------------------------------------------------------
 
 def summarise(ballmill_path=None, forcechain_path=None, bed_path=None, tavares_path=None,
-              stirred_path=None, calibration_paths=None, command="", docs="docs/results"):
+              stirred_path=None, calibration_paths=None, command="", docs="docs/results",
+              ballmill3d_path=None):
     """The summary of whichever studies are given (a dict, JSON-serialisable), with how many
     pages of ``docs`` (the measured results) are current."""
     studies = [_read(study, path) for study, path in (
         (ballmill, ballmill_path), (forcechain, forcechain_path), (bed, bed_path),
-        (tavares, tavares_path), (stirred, stirred_path)) if path]
+        (tavares, tavares_path), (stirred, stirred_path), (ballmill3d, ballmill3d_path))
+        if path]
     synthetic = False
     if calibration_paths:
         cal = _read(calibration, *calibration_paths)

@@ -13,7 +13,7 @@ An entry's ``input`` says what the figure is drawn from:
 
 A name may hold one ``{name}`` field (``error_vs_runtime_{name}``): a family of figures, one per
 value, which the drawing function receives as the keyword ``name``. The drawing functions live in
-one module per study (ballmill, animation, bed_impact, tavares, stirred_mill, accuracy), imported
+one module per study (ballmill, ballmill3d, animation, bed_impact, tavares, stirred_mill, accuracy), imported
 only when a figure is drawn.
 """
 
@@ -96,6 +96,32 @@ _ENTRIES = (
     Plot("animation", "animation:animation", "snapshots",
          "Animation of a case from its particle snapshots: grains coloured by speed, drum wall "
          "and lifter particles grey."),
+    # ---- ball mill 3D (issue 52): speed x filling ----
+    Plot("ballmill3d_power", "ballmill3d:power", "aggregate:ballmill3d",
+         "Mean drive power (shell and end walls) of the 3D ball mill against the rotation speed as "
+         "a fraction of the critical speed, one colour per filling J, with 95% half-widths (MSER-5 "
+         "and batch means). Dashed: the net power of Morrell's C-model (Morrell 1996; dry, "
+         "cylindrical section) at the cases' speeds and charge density, scaled to the simulated "
+         "powers by least squares (factor in the legend): a reference SHAPE, as a small DEM mill "
+         "and the industrial model differ in absolute power. Dotted: the simulated maximum, the "
+         "vertex of the parabola through the highest point and its neighbours (none where the "
+         "sweep does not bracket it); grey band: 0.7-0.9 of critical. " + _FEW),
+    Plot("ballmill3d_charge_shape", "ballmill3d:charge_shape", "aggregate:ballmill3d",
+         "Toe (squares) and shoulder (circles) angles of the charge, from the vertical below the "
+         "axis and positive in the direction of rotation, against the rotation speed, one colour "
+         "per filling J; dashed: Morrell's empirical relations (Morrell 1996) at the same speeds "
+         "and fillings. " + _FEW),
+    Plot("ballmill3d_spectra", "ballmill3d:spectra", "aggregate:ballmill3d",
+         "Impact-energy spectra: impacts per second in each energy bin against the bin's energy, "
+         "per contact type (solid: normal, dashed: tangential energy), one panel per rotation "
+         "speed and filling, log-log; bins with no impact are left out. Where the cases hold no "
+         "spectra the figure says so."),
+    Plot("ballmill3d_breakage_rate", "ballmill3d:breakage_rate", "aggregate:ballmill3d",
+         "Breakage rate per ore size class (the selection function: breakage events of parents in "
+         "the class per second over the mean number of particles in it) against the lower edge of "
+         "the class, one colour per rotation speed, one panel per filling, with 95% half-widths "
+         "(lower bars cut short of zero on the log axis); classes without breakage are not "
+         "drawn."),
     # ---- bed impact (Tavares et al. 2021, section 4.2) ----
     Plot("bed_broken_mass", "bed_impact:broken_mass", "aggregate:bed_breakage",
          "Broken mass (mass passing 4.75 mm, incl. dummy spheres and fines, % of the bed) after "
