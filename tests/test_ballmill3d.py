@@ -88,6 +88,26 @@ def test_ore_mass_is_conserved_in_the_product_distribution(milled):
     assert float(ds.fines_mass) > 0
 
 
+def test_spectra_hold_the_audited_contact_dissipation(milled):
+    """Collision energy spectra (engine.spectra) over the measured interval: the energies of the
+    collisions that ended plus the change of the open contacts' equal the energy audit's contact
+    dissipation within 1 % (issue 52; the audit is the engine's, the spectra a separate
+    per-contact book). Every contact type of a mill with breakage occurs, the binned rates
+    never exceed the collision rates, and the energies per second stay below the drive power
+    (the contacts cannot dissipate more than the drive gives, plus the charge's energy change)."""
+    _, ds = milled
+    assert abs(float(ds.spectra_audit_error)) < 0.01
+    assert list(ds.contact_type.values) == ["ball-ball", "ball-ore", "ore-ore", "ball-liner",
+                                            "ore-liner"]
+    assert (ds.collision_rate.values > 0).all()
+    binned = ds.impact_rate_normal.sum("energy_bin").values + ds.collision_rate_below_range.values
+    assert (binned <= ds.collision_rate.values * (1 + 1e-12)).all()
+    edges = ds.energy_edge.values
+    assert np.allclose(np.diff(np.log(edges)), np.log(edges[1] / edges[0]))
+    dissipated = float(ds.collision_energy_normal.sum() + ds.collision_energy_tangential.sum())
+    assert 0 < dissipated < 1.5 * float(ds.power)
+
+
 def _arc(theta_toe, theta_shoulder, n=20000, rho=0.095, seed=0):
     rng = np.random.default_rng(seed)
     theta = rng.uniform(theta_toe, theta_shoulder, n)
@@ -165,29 +185,9 @@ def test_liner_mill_power_and_energy_balance_without_breakage(tmp_path, soft_mat
     assert int(ds.breakage_events) == 0
 
 
-def _mesh_breakage_refused():
-    """Whether the engine still refuses a mesh wall together with a breakage model."""
-    from millsim.engine import PhysicsSpec, Simulation
-    from millsim.engine.mesh_io import box_mesh
-    from millsim.models import Interaction, Material, MaterialTable, TavaresModel
-
-    v, f = box_mesh((-1, -1, -1), (0, 1, 1))
-    table = MaterialTable([Material("ore", 2700.0, 1e9, 0.25)],
-                          {"*": Interaction(restitution=0.5, friction=0.5)})
-    try:
-        Simulation(PhysicsSpec(dim=3, walls=True, mesh_walls=True), table, x=[[0.5, 0, 0]],
-                   radius=[0.1], material="ore", walls=[dict(kind="mesh", vertices=v, faces=f,
-                                                             material="ore")],
-                   breakage=TavaresModel({"ore": (5.0, 0.0)}))
-    except ValueError as exc:
-        return "mesh walls are dry" in str(exc)
-    return False
-
-
-@pytest.mark.skipif(_mesh_breakage_refused(), reason="the engine still refuses mesh walls with "
-                    "breakage (issue 52: lifted in another branch; enable after the merge)")
 def test_liner_mill_with_breakage_closes_the_energy_balance(tmp_path, soft_materials):
-    """The target case: liner and Tavares breakage together."""
+    """The target case: liner and Tavares breakage together (mesh slots keep the model's
+    contact state, engine/loop/wall_pass.py), with the spectra's liner contacts."""
     path = tmp_path / "liner.stl"
     _liner(path)
     values = SCENE.resolve(dict(SMALL, liner=str(path), materials_file=soft_materials,
@@ -196,6 +196,8 @@ def test_liner_mill_with_breakage_closes_the_energy_balance(tmp_path, soft_mater
     assert int(ds.breakage_events) > 0
     assert abs(float(ds.energy_balance_error)) < 0.02
     assert float(ds.power) == pytest.approx(float(ds.torque) * float(ds.omega), rel=1e-6)
+    assert abs(float(ds.spectra_audit_error)) < 0.01
+    assert float(ds.collision_rate.sel(contact_type="ore-liner")) > 0
 
 
 # ---- bad input: one line naming the key or the file ----------------------------------------------

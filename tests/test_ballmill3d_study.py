@@ -2,8 +2,7 @@
 synthetic cases written to the scene's output contract, Morrell's references against the
 formulas computed here independently, the figures, and the pipeline's targets (dry run).
 
-No simulation: the scene ballmill3d is another module's; where it is not registered yet, a stub
-with the contract's parameters stands in for it (``stub_scene``) so that the workflow plans.
+No simulation: the scene's own runs are tests/test_ballmill3d.py's.
 """
 
 import math
@@ -17,39 +16,13 @@ from millsim.analysis import ballmill3d as bm3
 from millsim.analysis.aggregate import aggregate
 from millsim.io import read_case, write_case, write_netcdf
 from millsim.plots import plot
-from millsim.scenes import base, load_all
 
 G = 9.81
 D, L, BALL = 0.3, 0.15, 0.025  # drum diameter and length, ball diameter [m]
 CONTACTS = ["ball-ball", "ball-ore", "ore-ore", "ball-liner", "ore-liner"]
 
 
-# ---- the scene's place holder and its cases ------------------------------------------------------
-
-def stub_scene(monkeypatch):
-    """Register a stand-in for scene ballmill3d with the contract's parameters, unless the real
-    scene is there (then nothing: the workflow resolves the cases with it)."""
-    load_all()
-    if "ballmill3d" in base.REGISTRY:
-        return
-    params = (
-        base.Param("n_over_nc", 0.75, "fraction of the critical speed", "1", 0.0, 2.0, True),
-        base.Param("filling", 0.3, "fraction of the drum's volume", "1", 0.0, 1.0, True, True),
-        base.Param("ball_ore_ratio", 1.0, "balls to ore", "1", 0.0, lo_open=True),
-        base.Param("drum_diameter", D, "inner diameter", "m", 0.0, lo_open=True),
-        base.Param("drum_length", L, "inner length", "m", 0.0, lo_open=True),
-        base.Param("liner", "", "STL of the shell ('' analytic)"),
-        base.Param("liner_scale", 1.0, "units of the STL", "1", 0.0, lo_open=True),
-        base.Param("ore_material", "copper_ore", "ore of the materials file"),
-        base.Param("materials_file", "config/materials.yaml", "materials file"),
-        base.Param("breakage", True, "Tavares breakage of the ore"),
-        base.Param("revolutions", 3.0, "simulated revolutions", "1", 0.0, lo_open=True),
-        base.Param("transient_revolutions", 1.0, "discarded", "1", 0.0),
-        base.Param("seed", 1, "random seed", "1", 0),
-    )
-    monkeypatch.setitem(base.REGISTRY, "ballmill3d",
-                        base.Scene("ballmill3d", "stand-in (tests)", params, lambda values: None))
-
+# ---- synthetic cases -------------------------------------------------------------------------
 
 def critical_speed():
     return math.sqrt(2 * G / (D - BALL))  # the ball radius subtracted, as the scene may do
@@ -349,3 +322,15 @@ def test_report_decides_the_peak_and_the_energy_balance(tmp_path):
                            docs=tmp_path)
     peak = [v for v in low["verdicts"] if v["check"].endswith("J = 0.4")][0]
     assert peak["passed"] is None and report._status(peak) == "n/a"
+
+
+def test_breakage_figure_without_breakage_says_so(tmp_path):
+    """Cases in which nothing broke (a short quick-study run) have no point for log axes: the
+    figure says so instead of failing."""
+    source = study(tmp_path)
+    with xr.open_dataset(source) as ds:
+        ds = ds.load()
+    ds["breakage_rate"] = ds["breakage_rate"] * np.nan
+    quiet = write_netcdf(tmp_path / "quiet.nc", ds)
+    fig = _draw("ballmill3d_breakage_rate", quiet, tmp_path / "b.png")
+    assert any("no breakage recorded" in t.get_text() for ax in fig.axes for t in ax.texts)

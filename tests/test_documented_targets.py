@@ -19,7 +19,6 @@ from pathlib import Path
 import pytest
 from snakemake import api
 from snakemake.settings import types as settings
-from test_ballmill3d_study import stub_scene
 
 from millsim.scenes import base
 
@@ -128,7 +127,6 @@ def builds(monkeypatch):
     particles' sizes and materials, not of where the seed puts them; a ladder repeats every rung
     over 3 seeds), or stubbed; returns the switch."""
     base.get_scene("ballmill2d")  # load every scene
-    stub_scene(monkeypatch)  # until the scene ballmill3d is merged: its contract's parameters
     done = {}
 
     def memo(scene):

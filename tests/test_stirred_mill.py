@@ -363,9 +363,7 @@ def _pipeline(tmp_path, monkeypatch, stirred):
     import yaml
     from snakemake import api
     from snakemake.settings import types as settings
-    from test_ballmill3d_study import stub_scene
 
-    stub_scene(monkeypatch)  # the shipped config's ballmill3d study, until the scene is merged
 
     for name in ("Snakefile", "workflow", "config"):
         src = os.path.join(ROOT, name)

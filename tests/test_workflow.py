@@ -9,7 +9,6 @@ import pytest
 import yaml
 from snakemake import api
 from snakemake.settings import types as settings
-from test_ballmill3d_study import stub_scene
 
 from millsim.io import case_parameters, read_case
 
@@ -179,7 +178,6 @@ def test_every_rule_calls_millsim():
 def test_one_scene_target_plans_that_scene_only(workdir, monkeypatch, scene, own, other):
     """`snakemake <scene>` (the README's 'run one scene'): the shipped config's jobs of that
     scene, none of another's."""
-    stub_scene(monkeypatch)  # until the scene ballmill3d is merged
     updated = []
     output = settings.OutputSettings(dryrun=True, quiet={settings.Quietness.ALL})
     with api.SnakemakeApi(output) as sm:

@@ -120,16 +120,20 @@ def breakage_rate(ds: xr.Dataset, out: str) -> None:
             case = ds.sel({FILLING: j, SPEED: s})
             rate, half = case["breakage_rate"].values, case["breakage_rate_half_width"].values
             ok = rate > 0  # a class without breakage has no point on log axes
+            if not ok.any():
+                continue
             drawn += int(ok.sum())
             # the lower bar stops short of zero, which log axes cannot show
             low = np.minimum(half[ok], 0.999 * rate[ok])
             ax.errorbar(size[ok], rate[ok], yerr=[low, half[ok]], marker="o",
                         color=f"C{k % 10}", label=f"{N_NC} = {s:g}")
-        ax.set(xscale="log", yscale="log", title=f"Breakage rate per size class, {_fill(j)}",
+        ax.set(title=f"Breakage rate per size class, {_fill(j)}",
                xlabel=label("lower edge of the size class", "mm"),
                ylabel=label("breakage rate (selection function)", "s-1"))
         if drawn:
+            ax.set(xscale="log", yscale="log")
             ax.legend(loc="lower right", title="rotation speed")
-        else:
-            ax.text(0.5, 0.5, "no breakage recorded", transform=ax.transAxes, ha="center")
+        else:  # nothing to put on log axes
+            ax.text(0.5, 0.5, "no breakage recorded in these cases", transform=ax.transAxes,
+                    ha="center")
     fig.savefig(out)

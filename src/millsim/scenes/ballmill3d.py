@@ -59,6 +59,7 @@ import math
 import numpy as np
 
 from ..engine import Guards, PhysicsSpec, Pour, Simulation
+from ..engine.spectra import SpectraBins
 from ..models import TavaresModel
 from ..models.breakage import progeny_families, tavares, tavares_materials
 from ..models.breakage.replacement import TavaresReplacement
@@ -75,6 +76,7 @@ from .base import (
     step_policy,
 )
 from .bed_impact import product_passing
+from .config_walls import scene_walls
 from .driver import Case, Output, Series
 
 G = charge.G
@@ -97,6 +99,16 @@ PARAMS = (
     Param("materials_file", tavares_materials.MATERIALS_FILE,
           "Tavares materials and Table 6 contact parameters (docs/materials.md)"),
     Param("breakage", True, "Tavares breakage of the ore on/off"),
+    Param("spectra", True, "record collision energy spectra per contact type (engine.spectra)"),
+    Param("spectra_min_energy", 1e-9, "lowest edge of the spectra's log-spaced energy bins", "J",
+          0.0, lo_open=True),
+    Param("spectra_max_energy", 10.0, "highest edge of the spectra's energy bins", "J", 0.0,
+          lo_open=True),
+    Param("spectra_bins", 40, "energy bins of the spectra (besides under- and overflow)", "1", 1),
+    Param("stiffness_scale", 1.0, "Young's moduli of ore and steel x this factor (1: the materials "
+          "file's; < 1 softens the contacts for a larger step, the usual DEM mill practice for "
+          "power and charge motion, but it raises the loading work of slow, weight-borne "
+          "contacts: docs/ballmill3d.md)", "1", 0.0, 1.0, lo_open=True),
     Param("ball_diameter_min", 0.025, "smallest steel ball", "m", 0.0, lo_open=True),
     Param("ball_diameter_max", 0.025, "largest steel ball", "m", 0.0, lo_open=True),
     Param("ore_diameter_min", 0.005, "smallest ore particle of the feed", "m", 0.0, lo_open=True),
@@ -126,10 +138,41 @@ def _check(values):
     check_particle_memory("filling", counts.balls + counts.ore)
 
 
-def physics_spec(mesh):
-    """The one compiled variant of the scene per shell kind (breakage adds the model's hooks)."""
+def physics_spec(mesh, spectra):
+    """The one compiled variant of the scene per shell kind and spectra on/off (breakage adds
+    the model's hooks)."""
     return PhysicsSpec(dim=3, walls=True, gravity=True, rolling_friction=True, mesh_walls=mesh,
-                       energy_audit=True)
+                       energy_audit=True, collision_spectra=spectra)
+
+
+def _spectra_on(values):
+    return values["spectra"]
+
+
+# collision energy spectra over the measured interval (engine.spectra; docs/ballmill3d.md)
+SPECTRA_OUTPUTS = (
+    Output("contact_type", ("contact_type",), "1", "contact type (liner: shell and end walls)",
+           coord=True, when=_spectra_on),
+    Output("energy_edge", ("energy_edge",), "J", "edges of the log-spaced energy bins",
+           coord=True, when=_spectra_on),
+    Output("energy_bin", ("energy_bin",), "J", "geometric centre of the energy bin", coord=True,
+           when=_spectra_on),
+    Output("impact_rate_normal", ("contact_type", "energy_bin"), "s-1", "collisions per second "
+           "by the normal energy each dissipated (damping), per bin", when=_spectra_on),
+    Output("impact_rate_tangential", ("contact_type", "energy_bin"), "s-1", "collisions per "
+           "second by the tangential energy each dissipated (friction, tangential damping, "
+           "rolling friction), per bin", when=_spectra_on),
+    Output("collision_rate", ("contact_type",), "s-1", "collisions per second (every energy)",
+           when=_spectra_on),
+    Output("collision_rate_below_range", ("contact_type",), "s-1", "collisions per second whose "
+           "normal energy lies below spectra_min_energy", when=_spectra_on),
+    Output("collision_energy_normal", ("contact_type",), "W", "normal energy dissipated per "
+           "second in the collisions that ended", when=_spectra_on),
+    Output("collision_energy_tangential", ("contact_type",), "W", "tangential energy dissipated "
+           "per second in the collisions that ended", when=_spectra_on),
+    Output("spectra_audit_error", (), "1", "(collision energies + change of the open contacts' "
+           "- audited contact dissipation) / audited, measured interval", when=_spectra_on),
+)
 
 
 class BallMill3DCase(Case):
@@ -152,6 +195,7 @@ class BallMill3DCase(Case):
         Output("sieve", ("sieve",), "m", "sieve aperture", coord=True),
         Output("record_time", ("record_time",), "s", "time of the PSD record since the drum "
                "started", coord=True),
+        *SPECTRA_OUTPUTS,
         Output("power", (), "W", "mean drive power (shell + end walls), steady interval",
                "interval-mean power records after max(transient, MSER-5 start)"),
         Output("power_half_width", (), "W", "95 % half-width of the mean drive power",
@@ -211,11 +255,15 @@ class BallMill3DCase(Case):
         x, r = self.pours[0].first()
         smallest = 0.5 * (self.d_min if v["breakage"] else v["ore_diameter_min"])
         impact = max(1.0, self.omega * 0.5 * D + math.sqrt(2 * G * D))
+        # the walls of the config (scenes/config_walls.py) come after the drum's own 3
+        spec, walls = scene_walls(v, physics_spec(bool(v["liner"]), v["spectra"]), charge.walls(v))
         self.sim = Simulation(
-            physics_spec(bool(v["liner"])), table, x=x, radius=r, material=steel,
-            walls=charge.walls(v), gravity=(0.0, 0.0, -G), skin=v["skin"],
+            spec, table, x=x, radius=r, material=steel, walls=walls, gravity=(0.0, 0.0, -G),
+            skin=v["skin"],
             step=step_policy(v, impact_speed=impact, smallest_radius=smallest),
             guards=Guards(max_overlap=v["max_overlap"]),
+            spectra=SpectraBins(v["spectra_min_energy"], v["spectra_max_energy"],
+                                v["spectra_bins"]) if v["spectra"] else None,
             breakage=TavaresModel({ore: (self.mat.gamma, self.mat.e_min)}) if v["breakage"] else None)
         self.replace = TavaresReplacement({ore: self.mat}, d_min=self.d_min, seed=v["seed"],
                                           dummy_as="fines") if v["breakage"] else None
@@ -258,7 +306,7 @@ class BallMill3DCase(Case):
         else:
             self._record()
             if self.window is None and self.mill_time() >= self.transient_end - 1e-12:
-                self.window = obs.energy_state(sim, self.removed)
+                self._open_window()
             if self.window is not None:
                 p = sim.particles
                 self.profile += obs.band_profile(p.x[sim.free], p.radius[sim.free],
@@ -280,8 +328,15 @@ class BallMill3DCase(Case):
         self.transient_end = v["transient_revolutions"] * self.period
         self.mill_start_step = sim.step
         self.last = DriveMark(*obs.drive_state(sim), sim.time)
-        self.window = obs.energy_state(sim, self.removed) if self.transient_end <= 0 else None
+        self.window = None
+        if self.transient_end <= 0:
+            self._open_window()
         self._psd_record()
+
+    def _open_window(self):
+        """The start of the measured interval: energy book and spectra."""
+        self.window = obs.energy_state(self.sim, self.removed)
+        self.spectra_start = obs.spectra_state(self.sim) if self.v["spectra"] else None
 
     def mill_time(self):
         return self.sim.time - self.t_mill
@@ -354,7 +409,13 @@ class BallMill3DCase(Case):
             self.event_times, [ev.parent_diameter for ev in events], self.classes,
             self.transient_end, self.mill_time(), psd_t, np.array(self.class_counts),
             v["ci_blocks"])
+        spectra = {}
+        if v["spectra"]:
+            spectra = obs.spectra_outputs(self.spectra_start, obs.spectra_state(sim),
+                                          sim.material_index(tavares_materials.DEVICE_MATERIAL),
+                                          sim.material_index(self.ore_name))
         return {
+            **spectra,
             "size_class": self.classes, "sieve": self.sieves, "record_time": psd_t,
             "power": p_mean, "power_half_width": p_half,
             "torque": float(torque[steady].mean()),
@@ -379,4 +440,5 @@ class BallMill3DCase(Case):
 register(Scene("ballmill3d", "3D ball mill with an STL liner (or cylinder), steel balls and ore "
                "breaking by the Tavares model: power, toe and shoulder, selection function, "
                "product size distribution (Tavares et al. 2021)", PARAMS, BallMill3DCase,
-               (_check,)))
+               (_check,), wall_materials=lambda values: (values["ore_material"],
+                                                         tavares_materials.DEVICE_MATERIAL)))

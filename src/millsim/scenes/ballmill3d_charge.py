@@ -185,7 +185,8 @@ def check(values):
 
 
 def material_table(values, tav):
-    """Hertz-Mindlin with the materials file's elastic constants (no softening) and its Table 6
+    """Hertz-Mindlin with the materials file's elastic constants (times ``stiffness_scale``, 1 =
+    none) and its Table 6
     contact parameters: ore-ore particle_particle, ore-ball and ore-liner particle_steel,
     ball-ball and ball-liner steel_steel (balls and liner are the file's steel)."""
     contacts = tavares_materials.load_contacts(values["materials_file"])
@@ -197,8 +198,9 @@ def material_table(values, tav):
         return Interaction(restitution=c["restitution"], friction=c["static_friction"],
                            rolling_friction=c["rolling_friction"])
 
-    return MaterialTable([Material(name, ore.density, ore.young, ore.poisson),
-                          Material(steel, device.density, device.young, device.poisson)],
+    soft = values["stiffness_scale"]
+    return MaterialTable([Material(name, ore.density, soft * ore.young, ore.poisson),
+                          Material(steel, device.density, soft * device.young, device.poisson)],
                          {"*": inter("particle_particle"), (name, steel): inter("particle_steel"),
                           (steel, steel): inter("steel_steel")}, "hertz_mindlin")
 

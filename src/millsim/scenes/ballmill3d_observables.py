@@ -183,3 +183,53 @@ def energy_balance_error(a, b):
     work = b["work"] - a["work"]
     out = sum(b[k] - a[k] for k in ("kinetic", "potential", "elastic", "dissipated"))
     return (work - out) / work if work else math.nan
+
+
+# ---- collision energy spectra (engine.spectra) ---------------------------------------------------
+CONTACT_TYPES = ("ball-ball", "ball-ore", "ore-ore", "ball-liner", "ore-liner")
+CONTACT_TERMS = ("contact_normal_damping", "contact_tangential_translation",
+                 "contact_tangential_rotation")
+
+
+def spectra_state(sim):
+    """The spectra so far and the audit's contact dissipation [J] (normal, tangential)."""
+    audit = sim.energy_audit()
+    return sim.collision_spectra(), (audit[CONTACT_TERMS[0]],
+                                     audit[CONTACT_TERMS[1]] + audit[CONTACT_TERMS[2]])
+
+
+def contact_type_tables(spectra, ball, ore):
+    """Per contact type of CONTACT_TYPES (material indices ``ball``, ``ore``; the liner and
+    end walls are walls of the balls' steel): counts (type, normal/tangential, bin incl. under-
+    and overflow) and energies (type, normal/tangential) of the collisions that ended."""
+    lo, hi = min(ball, ore), max(ball, ore)
+    where = (("pair", ball, ball), ("pair", lo, hi), ("pair", ore, ore), ("wall", ball, ball),
+             ("wall", ore, ball))
+    counts = np.array([[getattr(spectra, f"{table}_{part}")[a, b]
+                        for part in ("normal", "tangential")] for table, a, b in where])
+    energy = np.array([getattr(spectra, f"{table}_energy")[a, b] for table, a, b in where])
+    return counts, energy
+
+
+def spectra_outputs(start, end, ball, ore):
+    """Impacts per second per energy bin and type over [start, end] (``spectra_state`` pairs),
+    and the check of the spectra against the audit: (counted + change of open - audited) /
+    audited contact dissipation, normal and tangential together."""
+    (s0, audit0), (s1, audit1) = start, end
+    window = s1.since(s0)
+    counts, energy = contact_type_tables(window, ball, ore)
+    rate = counts / window.duration
+    edges = window.edges
+    counted = float(window.pair_energy.sum() + window.wall_energy.sum())
+    opened = (s1.open_normal + s1.open_tangential) - (s0.open_normal + s0.open_tangential)
+    audited = (audit1[0] - audit0[0]) + (audit1[1] - audit0[1])
+    return {
+        "contact_type": np.array(CONTACT_TYPES), "energy_edge": edges,
+        "energy_bin": np.sqrt(edges[:-1] * edges[1:]),
+        "impact_rate_normal": rate[:, 0, 1:-1], "impact_rate_tangential": rate[:, 1, 1:-1],
+        "collision_rate": counts[:, 0].sum(axis=-1) / window.duration,
+        "collision_rate_below_range": rate[:, 0, 0],
+        "collision_energy_normal": energy[:, 0] / window.duration,
+        "collision_energy_tangential": energy[:, 1] / window.duration,
+        "spectra_audit_error": (counted + opened - audited) / audited if audited else math.nan,
+    }
