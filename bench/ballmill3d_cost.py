@@ -1,6 +1,7 @@
 """Cost of scene ``ballmill3d`` (issue 52 item 6): the lab mill of 0.3 m at 30 % filling (25 mm
 balls, 5-10 mm copper ore, ball:ore mass 1:1) with its liner against the analytic shell, and
-with Tavares breakage against without, in seconds of wall time per revolution.
+with Tavares breakage and the collision energy spectra against without either, in seconds of
+wall time per revolution.
 
     python bench/ballmill3d_cost.py [--length 0.5] [--steps 2000] [--repeats 3] [--threads 2]
                                     [--pour-time 0.1] [--settle-time 0.05] [--prep-dt-factor 4]
@@ -68,6 +69,11 @@ def main(argv=None):
     ap.add_argument("--settle-time", type=float, default=0.05)
     ap.add_argument("--prep-dt-factor", type=float, default=4.0,
                     help="step of the pour and settle / the recommended step (not timed)")
+    ap.add_argument("--stiffness-scale", type=float, default=1.0,
+                    help="the scene's stiffness_scale (1: the materials file's moduli)")
+    ap.add_argument("--d-min-ratio", type=float, default=0.05,
+                    help="the scene's d_min_ratio (smallest progeny / top feed size)")
+    ap.add_argument("--shells", default="cylinder,liner", help="arms' shells, comma-separated")
     ap.add_argument("--json", default="bench/out/ballmill3d_cost.json")
     a = ap.parse_args(argv)
     load_all()
@@ -76,11 +82,13 @@ def main(argv=None):
     liner = tmp / "lab_liner.stl"
     lab_liner(liner, a.length)
     arms, refused = {}, {}
-    for shell in ("cylinder", "liner"):
+    for shell in a.shells.split(","):
         for breakage in (False, True):
             name = f"{shell}{'+breakage' if breakage else ''}"
             values = dict(LAB, drum_length=a.length, liner=str(liner) if shell == "liner" else "",
-                          breakage=breakage, pour_time=a.pour_time, settle_time=a.settle_time)
+                          breakage=breakage, spectra=breakage, pour_time=a.pour_time,
+                          settle_time=a.settle_time, stiffness_scale=a.stiffness_scale,
+                          d_min_ratio=a.d_min_ratio)
             try:
                 arms[name], prep = prepare(scene, values, a.threads, a.prep_dt_factor)
             except ValueError as exc:
@@ -113,7 +121,7 @@ def main(argv=None):
                           list_rebuilds=int(sim.counters[0]))
         print(f"{name}: {rows[name]}", file=sys.stderr)
     ratios = {}
-    for shell in ("cylinder", "liner"):
+    for shell in a.shells.split(","):
         on, off = rows.get(f"{shell}+breakage"), rows.get(shell)
         if on and off:
             ratios[f"{shell}: breakage / none, per step"] = on["wall_s_per_step"] / off["wall_s_per_step"]
