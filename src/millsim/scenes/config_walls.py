@@ -47,7 +47,7 @@ class WallsParam(Param):
 
 
 WALLS_PARAM = WallsParam(
-    "walls", (), "walls added to the scene's own: a list of {kind, material, geometry keys, "
+    "walls", [], "walls added to the scene's own: a list of {kind, material, geometry keys, "
     "omega, velocity, ramp} as docs/walls.md declares them, a mesh with file and scale",
     "SI")
 
