@@ -49,6 +49,9 @@ if "ballmill3d" in config:
 
 
 include: "workflow/rules/report.smk"
+# `snakemake paper_<study>` / `paper`: the results pages of the paper-scale studies (issue 48);
+# not part of `rule all`
+include: "workflow/rules/paper.smk"
 
 
 # Error against run time (issue 6): `snakemake --cores 2 accuracy`; not part of `rule all`

@@ -81,8 +81,8 @@ def plan_of(words):
 
 
 def documented_plans():
-    """{config file or "": (targets, where they are documented)}; config files that are not in
-    the repository (a user's my_study.yaml) are left out."""
+    """{config files (space-separated) or "": (targets, where they are documented)}; config
+    files that are not in the repository (a user's my_study.yaml) are left out."""
     plans = {}
     for path, words in documented_commands():
         plan = plan_of(words)
@@ -91,7 +91,7 @@ def documented_plans():
         configfiles, targets, until = plan
         if any(not (ROOT / c).is_file() for c in configfiles):
             continue
-        key = configfiles[-1] if configfiles else ""
+        key = " ".join(configfiles)  # several are merged in order: planned together
         entry = plans.setdefault(key, (set(), set()))
         entry[0].update(targets + until or ["all"])
         entry[1].add(str(path))
@@ -106,6 +106,9 @@ def test_the_documented_commands_are_found():
     assert {"all", "accuracy", "ballmill", "ballmill3d", "bed_impact", "stirred_mill",
             "results/plots/ballmill_rate.png"} <= plans[""][0]
     assert "ballmill3d" in plans["config/paper.yaml"][0]
+    assert {"paper_ballmill", "paper_bed_impact", "paper_single_particle"} <= \
+        plans["config/paper.yaml"][0]
+    assert {"paper_stirred_mill", "paper"} <= plans["config/paper.yaml config/ls1_power.yaml"][0]
     assert plan_of(shlex.split("--cores 2 results/plots/tavares_probability.png --configfile "
                                "a.yaml b.yaml")) == (("a.yaml", "b.yaml"),
                                                      ["results/plots/tavares_probability.png"], [])
@@ -156,7 +159,7 @@ def test_every_documented_target_plans(workdir, builds, monkeypatch, configfile)
     monkeypatch.chdir(workdir)  # the API changes into its workdir; undone after the test
     monkeypatch.setenv("PATH", os.environ["PATH"])  # common.smk prepends the venv; undone too
     output = settings.OutputSettings(dryrun=True, quiet={settings.Quietness.ALL})
-    configs = settings.ConfigSettings(configfiles=[workdir / configfile] if configfile else [])
+    configs = settings.ConfigSettings(configfiles=[workdir / c for c in configfile.split()])
     with api.SnakemakeApi(output) as sm:
         workflow = sm.workflow(resource_settings=settings.ResourceSettings(cores=2),
                                config_settings=configs, snakefile=workdir / "Snakefile",

@@ -311,6 +311,12 @@ def cmd_evidence(args):
     print("\n".join(evidence.lines(result)))
 
 
+def cmd_results_page(args):
+    from .analysis import results_page
+
+    _check_out(args.out, [args.aggregate], ".md")
+    results_page.write_page(args.study, args.aggregate, args.out, args.figures)
+
 
 
 SCENE_MODULE_HELP = ("a scene of your own: a .py file or an importable module that registers "
@@ -380,6 +386,18 @@ def _report_parsers(sub):
                    "default: docs/results)")
     p.add_argument("--json", help="also write the list (JSON)")
     p.set_defaults(func=cmd_evidence)
+
+    from .analysis.results_page import STUDIES
+
+    p = sub.add_parser("results-page", help="the markdown results page of a paper-scale study, "
+                       "written from its aggregate: parameters, engine hash, cost, tables, figures")
+    p.add_argument("study", choices=sorted(STUDIES), help="the study (its aggregate: ballmill.nc, "
+                   "bed_breakage.nc, tavares_verification.nc, stirred_mill.nc)")
+    p.add_argument("aggregate", help="the study's aggregate (.nc)")
+    p.add_argument("--figures", help="folder of the study's figures (NAME.png; linked relative "
+                   "to the page)")
+    p.add_argument("--out", required=True, help="output page (.md)")
+    p.set_defaults(func=cmd_results_page)
 
 
 def build_parser():

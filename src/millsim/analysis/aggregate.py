@@ -16,7 +16,7 @@ import xarray as xr
 from ..io import case_parameters, read_case
 from . import ballmill, ballmill3d, bed_impact
 
-__all__ = ["aggregate", "same_code", "stack_cases", "swept_parameters", "SCENE_SUMMARIES"]
+__all__ = ["aggregate", "same_code", "case_cost", "stack_cases", "swept_parameters", "SCENE_SUMMARIES"]
 
 PER_CASE_DIMS = ("time", "event", "snapshot")
 # the code that computed a case: cases of two versions may differ by the change alone
@@ -105,6 +105,12 @@ def same_code(cases: Sequence[xr.Dataset], names: Sequence[str]) -> dict[str, st
     return common
 
 
+def case_cost(cases: Sequence[xr.Dataset]) -> dict[str, float]:
+    """The sum of the cases' wall times (``wall_time_s``, required of every case): the study's
+    cost, which a results page states (analysis.results_page)."""
+    return {"cases_wall_time_s": float(sum(float(ds.attrs["wall_time_s"]) for ds in cases))}
+
+
 def _unchanged(ds: xr.Dataset) -> xr.Dataset:
     return ds
 
@@ -132,7 +138,7 @@ def aggregate(scene: str, paths: Iterable[str | os.PathLike[str]],
     over = list(over or swept_parameters(cases))
     per_case, summary = SCENE_SUMMARIES.get(scene, (_unchanged, _unchanged))
     stacked = summary(stack_cases([per_case(ds) for ds in cases], over, coord_attrs))
-    stacked.attrs.update(code)  # set, not left to the stacking: a summary may rebuild the attrs
+    stacked.attrs.update(code, **case_cost(cases))  # set, not left to the stacking: a summary may rebuild the attrs
     stacked.attrs["source_cases"] = json.dumps(paths)
     stacked.attrs["title"] = f"millsim {scene}: {len(paths)} cases stacked over {', '.join(over)}"
     return stacked

@@ -68,7 +68,7 @@ import xarray as xr
 
 from ..io import case_parameters, read_case
 from ..models.breakage.tavares_predictions import table2_comparison
-from .aggregate import same_code
+from .aggregate import case_cost, same_code
 
 PASS_FRACTION = 0.90
 ENERGY_RATIO = {"units": "1", "long_name": "input specific energy / median E50 (stressing basis)"}
@@ -194,7 +194,8 @@ def aggregate(paths):
              "title": "millsim Tavares model verification (Tavares et al. 2021, section 4.1): "
                       "simulated against analytic breakage probabilities, repeated impacts and t10",
              # cases of other code would mix two engines' numbers in one verdict
-             **same_code([ds for _, ds in cases], [os.fspath(p) for p in paths])}
+             **same_code([ds for _, ds in cases], [os.fspath(p) for p in paths]),
+             **case_cost([ds for _, ds in cases])}
     for group in (_probability, _repeated, _fragmentation):
         group(cases, out, coords, attrs)
     # the verdicts of this study decided together (Holm), stored per group

@@ -1,0 +1,70 @@
+# Paper-scale studies (issue 48, item 3): one target per seed study, each writing its results page
+# results/pages/<study>.md with `millsim results-page` from the study's aggregate (tables, engine
+# hash, cost, links to the figures in results/plots). Run with the paper's config:
+#
+#   snakemake --cores 2 --configfile config/paper.yaml paper_ballmill          (also bed_impact,
+#       single_particle)
+#   snakemake --cores 2 --configfile config/paper.yaml config/ls1_power.yaml paper_stirred_mill
+#   snakemake --cores 2 --configfile config/paper.yaml config/ls1_power.yaml paper   (all four)
+#
+# The stirred mill's page is that of its power study only (aggregate and figures, not the
+# calibration); costs and publishing to docs/results: docs/pipeline.md, "Paper-scale studies".
+# Included after the scenes: it asks for their targets.
+
+
+def _stirred_power_targets():
+    return [
+        "results/aggregate/stirred_mill.nc",
+        *(f"results/plots/{figure}.png" for figure in figures("stirred_mill")),
+    ]
+
+
+# study -> (its config block, its aggregate, what the page needs: aggregate(s) and figures)
+PAGE_STUDIES = {
+    "ballmill": ("ballmill", "results/aggregate/ballmill.nc", ballmill_targets),
+    "bed_impact": ("bed_impact", "results/aggregate/bed_breakage.nc", lambda: bed_impact_targets()),
+    "single_particle": (
+        "single_particle",
+        "results/aggregate/tavares_verification.nc",
+        lambda: single_particle_targets(),
+    ),
+    "stirred_mill": ("stirred_mill", "results/aggregate/stirred_mill.nc", _stirred_power_targets),
+}
+PAGES = [study for study, (block, _, _) in PAGE_STUDIES.items() if block in config]
+
+
+localrules:
+    results_page,
+    paper,
+
+
+rule results_page:
+    input:
+        aggregate=lambda wildcards: PAGE_STUDIES[wildcards.study][1],
+        needs=lambda wildcards: PAGE_STUDIES[wildcards.study][2](),
+    output:
+        "results/pages/{study}.md",
+    log:
+        "results/logs/results_page/{study}.log",
+    wildcard_constraints:
+        study="|".join(PAGES),
+    conda:
+        MILLSIM_ENV
+    shell:
+        "millsim results-page {wildcards.study} {input.aggregate:q} --figures results/plots"
+        " --out {output:q} > {log:q} 2>&1"
+
+
+for _study in PAGES:
+
+    rule:
+        name:
+            f"paper_{_study}"
+        localrule: True
+        input:
+            f"results/pages/{_study}.md",
+
+
+rule paper:
+    input:
+        [f"results/pages/{study}.md" for study in PAGES],
