@@ -60,9 +60,9 @@ for _study in PAGES:
     rule:
         name:
             f"paper_{_study}"
-        localrule: True
         input:
             f"results/pages/{_study}.md",
+        localrule: True
 
 
 rule paper:
