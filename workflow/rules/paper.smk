@@ -2,10 +2,10 @@
 # results/pages/<study>.md with `millsim results-page` from the study's aggregate (tables, engine
 # hash, cost, links to the figures in results/plots). Run with the paper's config:
 #
-#   snakemake --cores 2 --configfile config/paper.yaml paper_ballmill          (also bed_impact,
+#   snakemake paper_ballmill --cores 2 --configfile config/paper.yaml          (also bed_impact,
 #       single_particle)
-#   snakemake --cores 2 --configfile config/paper.yaml config/ls1_power.yaml paper_stirred_mill
-#   snakemake --cores 2 --configfile config/paper.yaml config/ls1_power.yaml paper   (all four)
+#   snakemake paper_stirred_mill --cores 2 --configfile config/paper.yaml config/ls1_power.yaml
+#   snakemake paper --cores 2 --configfile config/paper.yaml config/ls1_power.yaml   (all four)
 #
 # The stirred mill's page is that of its power study only (aggregate and figures, not the
 # calibration); costs and publishing to docs/results: docs/pipeline.md, "Paper-scale studies".
