@@ -315,7 +315,10 @@ def cmd_results_page(args):
     from .analysis import results_page
 
     _check_out(args.out, [args.aggregate], ".md")
-    results_page.write_page(args.study, args.aggregate, args.out, args.figures)
+    from . import plots
+
+    results_page.write_page(args.study, args.aggregate, args.out, args.figures,
+                            {p.name: (p.input, p.caption) for p in plots.PLOTS.values()})
 
 
 

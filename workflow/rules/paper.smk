@@ -51,7 +51,7 @@ rule results_page:
     conda:
         MILLSIM_ENV
     shell:
-        "millsim results-page {wildcards.study} {input.aggregate:q} --figures results/plots"
+        "millsim results-page {wildcards.study:q} {input.aggregate:q} --figures results/plots"
         " --out {output:q} > {log:q} 2>&1"
 
 

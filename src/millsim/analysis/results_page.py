@@ -194,11 +194,11 @@ def _cost(ds):
             "cases' wall times, one thread per case)")
 
 
-def _figures(study, figures, out):
-    from .. import plots
-
-    names = [p.name for p in plots.PLOTS.values()
-             if p.input.partition(":")[2] in STUDIES[study].datasets and "{" not in p.name]
+def _figures(study, figures, out, catalogue):
+    """Links to the study's figures found in ``figures``; ``catalogue``: {name: (input, caption)}
+    of every figure (the plots registry, handed in by the caller: analysis sits below plots)."""
+    names = [name for name, (source, _) in catalogue.items()
+             if source.partition(":")[2] in STUDIES[study].datasets and "{" not in name]
     if figures is None:
         return ["No figures given (`--figures`)."]
     lines, absent = [], []
@@ -209,14 +209,14 @@ def _figures(study, figures, out):
             continue
         link = Path(os.path.relpath(path, Path(out).parent)).as_posix()
         lines.append(f"![{name}]({link})")
-        lines.append(f"*{name}*: {plots.PLOTS[name].caption}")
+        lines.append(f"*{name}*: {catalogue[name][1]}")
         lines.append("")
     if absent:
         lines.append(f"Not drawn (absent from {Path(figures).as_posix()}): {', '.join(absent)}.")
     return lines
 
 
-def page(study, ds, source, figures=None, out="page.md"):
+def page(study, ds, source, figures=None, out="page.md", catalogue=None):
     """The markdown text of the page of ``study`` from aggregate ``ds`` (read from ``source``);
     figure links relative to ``out``."""
     if study not in STUDIES:
@@ -234,17 +234,17 @@ def page(study, ds, source, figures=None, out="page.md"):
             f"- cost: {_cost(ds)}", "", "## What was run", "", *_what_was_run(spec, ds), ""]
     for caption, table in spec.tables(ds):
         text += [f"## {caption}", "", *table, ""]
-    text += ["## Figures", "", *_figures(study, figures, out)]
+    text += ["## Figures", "", *_figures(study, figures, out, catalogue or {})]
     return "\n".join(text).rstrip() + "\n"
 
 
-def write_page(study, aggregate, out, figures=None):
+def write_page(study, aggregate, out, figures=None, catalogue=None):
     """Read ``aggregate`` and write the page of ``study`` to ``out`` (atomically)."""
     from ..io import atomic_target, read_case
 
     if figures is not None and not Path(figures).is_dir():
         raise ValueError(f"--figures: {figures} is not a folder")
-    text = page(study, read_case(aggregate), aggregate, figures, out)
+    text = page(study, read_case(aggregate), aggregate, figures, out, catalogue)
     with atomic_target(out) as tmp:
         Path(tmp).write_text(text)
     return text
