@@ -11,9 +11,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..engine.mesh_io import first_hits, read_mesh
+from ..engine.mesh_io import read_mesh
 from ..models import Interaction, Material, MaterialTable
 from ..models.breakage import tavares_materials
+from .liner_rays import axis_rays
 
 G = 9.81
 # Bulk solid fraction of the charge (balls and ore together) that ``filling`` is counted at: a
@@ -77,28 +78,14 @@ def probe_liner(values):
     if lo[1] > 1e-3 * length or hi[1] < length * (1 - 1e-3):
         raise ValueError(f"liner: {liner}: does not run along the drum's axis y from 0 to "
                          f"drum_length = {length:g} m; {span}")
-    angle = 2 * math.pi * (np.arange(LINER_RAYS) + 0.5) / LINER_RAYS
-    heights = length * (np.arange(LINER_HEIGHTS) + 0.5) / LINER_HEIGHTS
-    n = angle.size * heights.size
-    origins = np.column_stack([np.zeros(n), np.repeat(heights, angle.size), np.zeros(n)])
-    directions = np.tile(np.column_stack([np.cos(angle), np.zeros_like(angle), np.sin(angle)]),
-                         (heights.size, 1))
-    dist, inside = first_hits(vertices, faces, origins, directions)
-    if not np.isfinite(dist).all():
-        raise ValueError(f"liner: {liner}: does not enclose the drum's axis (x = z = 0): "
-                         f"{int((~np.isfinite(dist)).sum())} of {n} rays from it meet no wall; "
-                         f"{span}")
-    if inside.any():
-        raise ValueError(f"liner: {liner}: the drum's axis lies inside the liner's solid, not in "
-                         f"its hollow; {span}")
-    shell, tip = float(dist.max()), float(dist.min())
+    rings = axis_rays(liner, vertices, faces, length, LINER_RAYS, LINER_HEIGHTS, span)
+    shell, tip = float(rings.max()), float(rings.min())
     if abs(radius - shell) > LINER_MATCH * shell:
         raise ValueError(f"liner: {liner}: its shell lies {shell:.4g} m from the axis but "
                          f"drum_diameter / 2 is {radius:g} m (set drum_diameter within "
                          f"{LINER_MATCH:.0%} of {2 * shell:.4g} m, or liner_scale); {span}")
-    rings = dist.reshape(heights.size, angle.size)
     gap = min(lifter_gap(ring, shell, tip) for ring in rings)
-    area = float(np.mean([0.5 * (ring**2).sum() * 2 * math.pi / angle.size for ring in rings]))
+    area = float(np.mean([0.5 * (ring**2).sum() * 2 * math.pi / LINER_RAYS for ring in rings]))
     return LinerProbe(shell, tip, gap, area)
 
 

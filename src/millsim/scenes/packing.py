@@ -13,12 +13,13 @@ import numpy as np
 
 from ..engine import PhysicsSpec, Simulation, StepPolicy
 from ..engine.mesh import signed_clearance
-from ..engine.mesh_io import first_hits, read_mesh
+from ..engine.mesh_io import read_mesh
 from ..engine.spec import FORCE_SUMS
 from ..models import Interaction, Material, MaterialTable
 from .base import CONVENTION_PARAM, SOLID_PARAMS, Param, Scene, check_particle_memory, register
 from .config_walls import scene_walls
 from .driver import Case, Output, Series
+from .liner_rays import axis_rays
 
 PARAMS = (
     Param("n", 10000, "number of spheres", "1", 1),
@@ -85,20 +86,7 @@ def _check_liner(values):
     if lo[1] > r or hi[1] < length - r:
         raise ValueError(f"liner: {liner}: does not run along the drum's axis from y = 0 to "
                          f"drum_length = {length:g} m (to within the sphere radius); {span}")
-    angle = 2 * math.pi * (np.arange(LINER_RAYS) + 0.5) / LINER_RAYS
-    heights = length * (np.arange(LINER_HEIGHTS) + 0.5) / LINER_HEIGHTS
-    origins = np.column_stack([np.zeros(angle.size * heights.size), np.repeat(heights, angle.size),
-                               np.zeros(angle.size * heights.size)])
-    directions = np.tile(np.column_stack([np.cos(angle), np.zeros_like(angle), np.sin(angle)]),
-                         (heights.size, 1))
-    dist, inside = first_hits(vertices, faces, origins, directions)
-    if not np.isfinite(dist).all():
-        raise ValueError(f"liner: {liner}: does not enclose the drum's axis (x = z = 0): "
-                         f"{int((~np.isfinite(dist)).sum())} of {dist.size} rays from it meet no "
-                         f"wall, the charge would fall out; {span}")
-    if inside.any():
-        raise ValueError(f"liner: {liner}: the drum's axis (x = z = 0) lies inside the liner's "
-                         f"solid, not in its hollow; {span}")
+    dist = axis_rays(liner, vertices, faces, length, LINER_RAYS, LINER_HEIGHTS, span)
     shell = float(dist.max())
     if abs(radius - shell) > LINER_MATCH * shell:
         raise ValueError(f"liner: {liner}: its shell lies {shell:.4g} m from the axis but "
