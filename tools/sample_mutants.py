@@ -34,6 +34,7 @@ file recompiles the step loop).
 
 import argparse
 import ast
+import fnmatch
 import json
 import random
 import re
@@ -263,6 +264,8 @@ def main(argv=None):
     ap.add_argument("--per-module", type=int, default=30)
     ap.add_argument("--seed", type=int, default=47)
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per mutant")
+    ap.add_argument("--only", action="append", help="of the sample, only the mutants whose id "
+                    "matches this glob (repeatable), e.g. to re-run the survivors")
     ap.add_argument("--list", action="store_true", help="print the sample and exit")
     ap.add_argument("--json", help="outcomes, appended as each mutant ends (resumes from it)")
     ap.add_argument("--out", help="also write the report (Markdown) here")
@@ -273,6 +276,8 @@ def main(argv=None):
     if unknown:
         ap.error(f"--module: no such module {unknown}")
     mutants = sample(mods, args.per_module, args.seed)
+    if args.only:
+        mutants = [m for m in mutants if any(fnmatch.fnmatchcase(m["id"], g) for g in args.only)]
     if args.list:
         for m in mutants:
             print(f"{m['id']:44s} {m['original'][:40]!r:44s} -> {m['replacement'][:40]!r}")
