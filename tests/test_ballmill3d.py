@@ -52,15 +52,15 @@ def _liner(path, radius=0.05, length=0.03, lifters=8, height=0.006, width=0.006)
 @pytest.fixture(scope="module")
 def milled(soft_materials):
     values = SCENE.resolve(dict(SMALL, liner="", materials_file=soft_materials, breakage=True))
-    ds, _ = SCENE.run(values, RunContext())
-    return values, ds
+    ds, provenance = SCENE.run(values, RunContext())
+    return values, ds, provenance
 
 
 def test_drive_work_equals_dissipation_plus_energy_change_with_breakage(milled):
     """Work of shell and end walls = audited dissipation + energy removed at the replacements +
     change of kinetic, potential and elastic energy, within 2 % over the measured interval,
     while particles break (the replacements' energy is booked)."""
-    _, ds = milled
+    _, ds, _ = milled
     assert int(ds.breakage_events) > 0
     assert abs(float(ds.energy_balance_error)) < 0.02
 
@@ -68,7 +68,7 @@ def test_drive_work_equals_dissipation_plus_energy_change_with_breakage(milled):
 def test_power_is_torque_times_omega_and_the_drive_lifts_the_charge(milled):
     """P = T omega (every turning wall's torque is taken where its surface speed is), the
     critical speed is sqrt(2 g / (D - d)), and the drive supplies power (P > 0, T > 0)."""
-    values, ds = milled
+    values, ds, _ = milled
     omega_c = math.sqrt(2 * 9.81 / (values["drum_diameter"] - values["ball_diameter_max"]))
     assert float(ds.critical_speed) == pytest.approx(omega_c, rel=1e-12)
     assert float(ds.omega) == pytest.approx(values["n_over_nc"] * omega_c, rel=1e-12)
@@ -78,10 +78,28 @@ def test_power_is_torque_times_omega_and_the_drive_lifts_the_charge(milled):
     assert np.allclose(series[0], series[1] * float(ds.omega), rtol=1e-6, atol=1e-12)
 
 
+def test_the_step_follows_the_particles_present_and_records_keep_their_time(milled):
+    """Until something breaks, the mill steps at the feed's step (as without breakage: the
+    progeny's smaller step is not paid in advance); the progeny shrink it (their Hertz contact
+    is shorter: t ~ r at one impact speed); the records stay a 20th of a revolution apart in
+    time and the run ends after 0.45 revolutions, to within one step per record."""
+    values, ds, provenance = milled
+    feed = SCENE.build(values).sim.dt  # the case before its charge is poured and anything broke
+    assert int(ds.breakage_events) > 0
+    assert provenance["dt"] < feed / 1.5  # the smallest progeny 1.26 mm against the 6 mm feed
+    omega = values["n_over_nc"] * math.sqrt(2 * 9.81 / (values["drum_diameter"]
+                                                        - values["ball_diameter_max"]))
+    interval = 2 * math.pi / omega / values["records_per_revolution"]
+    t = ds.time.values
+    assert len(t) == round(values["revolutions"] * values["records_per_revolution"])
+    assert np.abs(np.diff(t, prepend=0.0) - interval).max() <= feed / 2 * (1 + 1e-9)
+    assert t[-1] == pytest.approx(values["revolutions"] * 2 * math.pi / omega, abs=len(t) * feed)
+
+
 def test_ore_mass_is_conserved_in_the_product_distribution(milled):
     """Resolved ore + fines = the initial ore at every record: the whole ore passes the top
     sieve (sqrt 2 x the feed's largest size), and the passing never exceeds 1."""
-    _, ds = milled
+    _, ds, _ = milled
     pf = ds["passing_fraction"].values
     assert np.allclose(pf[:, 0], 1.0, rtol=0, atol=1e-9)
     assert (pf <= 1 + 1e-9).all() and (np.diff(pf, axis=1) <= 1e-12).all()
@@ -95,7 +113,7 @@ def test_spectra_hold_the_audited_contact_dissipation(milled):
     per-contact book). Every contact type of a mill with breakage occurs, the binned rates
     never exceed the collision rates, and the energies per second stay below the drive power
     (the contacts cannot dissipate more than the drive gives, plus the charge's energy change)."""
-    _, ds = milled
+    _, ds, _ = milled
     assert abs(float(ds.spectra_audit_error)) < 0.01
     assert list(ds.contact_type.values) == ["ball-ball", "ball-ore", "ore-ore", "ball-liner",
                                             "ore-liner"]

@@ -29,8 +29,11 @@ steel balls and ore that breaks by the Tavares model (Tavares et al. 2021).
   the top ore size (1/20 as Tavares et al. 2021); what a family puts below it is kept as fines
   mass, spread below the parent by eq 11 in the product size distribution (as bed_impact with
   dummy_as = fines); resolved particles too small to break record their first breaking event's
-  t10' (eq 13). The time step is the engine's recommended step for the smallest progeny that can
-  exist (StepPolicy.smallest_radius = d_min / 2), fixed for the whole run.
+  t10' (eq 13). The time step is the engine's recommended step for the feed's smallest ore and the
+  particles present: it shrinks when a replacement brings smaller progeny
+  (Simulation.add_particles), so a mill in which nothing has broken yet steps as fast as one
+  without breakage. Records keep their interval in time (the steps per record follow dt) and the
+  run ends after a fixed number of records.
 - **Stages.** Pour (no fracture energies yet), settle, spin-up from rest to omega at once, and the
   milling. Time in the series and PSD records counts from the drum's start. The first
   ``transient_revolutions`` are discarded; the steady interval of the power starts at the later
@@ -253,14 +256,15 @@ class BallMill3DCase(Case):
                            seed=v["seed"] + 1,
                            radius_range=(0.5 * v["ore_diameter_min"], 0.5 * v["ore_diameter_max"]))]
         x, r = self.pours[0].first()
-        smallest = 0.5 * (self.d_min if v["breakage"] else v["ore_diameter_min"])
         impact = max(1.0, self.omega * 0.5 * D + math.sqrt(2 * G * D))
         # the walls of the config (scenes/config_walls.py) come after the drum's own 3
         spec, walls = scene_walls(v, physics_spec(bool(v["liner"]), v["spectra"]), charge.walls(v))
         self.sim = Simulation(
             spec, table, x=x, radius=r, material=steel, walls=walls, gravity=(0.0, 0.0, -G),
             skin=v["skin"],
-            step=step_policy(v, impact_speed=impact, smallest_radius=smallest),
+            # the feed's smallest ore sets dt from the start (the pour adds it later); smaller
+            # progeny shrink it when they appear
+            step=step_policy(v, impact_speed=impact, smallest_radius=0.5 * v["ore_diameter_min"]),
             guards=Guards(max_overlap=v["max_overlap"]),
             spectra=SpectraBins(v["spectra_min_energy"], v["spectra_max_energy"],
                                 v["spectra_bins"]) if v["spectra"] else None,
@@ -273,8 +277,7 @@ class BallMill3DCase(Case):
         self.sieves = obs.sieves(v["ore_diameter_max"], self.d_min)
         self.fines_passing = np.zeros(len(self.sieves))
         self.period = 2 * math.pi / self.omega
-        self.record_steps = max(1, int(round(self.period / v["records_per_revolution"]
-                                             / self.sim.dt)))
+        self.record_interval = self.period / v["records_per_revolution"]
         self.pour_steps = max(1, int(round(v["pour_time"] / 40 / self.sim.dt)))
         self.stage, self.settle_end = "pour", None
         # the poured particles make room by falling out of the pouring box
@@ -286,7 +289,16 @@ class BallMill3DCase(Case):
 
     # ---- stages --------------------------------------------------------------------------------
     def chunk(self):
-        return self.pour_steps if self.stage != "mill" else self.record_steps
+        return self.pour_steps if self.stage != "mill" else self.record_steps()
+
+    def record_left(self):
+        """Simulated time to the next record [s]."""
+        return self.record_interval - (self.sim.time - self.last.time)
+
+    def record_steps(self):
+        """Steps to the next record at today's dt: a record's steps, or the rest of them when
+        progeny smaller than any particle before them shrank dt within its chunk."""
+        return max(1, int(round(self.record_left() / self.sim.dt)))
 
     def after_chunk(self):
         sim, v = self.sim, self.v
@@ -303,7 +315,7 @@ class BallMill3DCase(Case):
         elif self.stage == "settle":
             if sim.time >= self.settle_end - 1e-12:
                 self._start_drum()
-        else:
+        elif self.record_left() <= 0.5 * sim.dt * (1 + 1e-9):
             self._record()
             if self.window is None and self.mill_time() >= self.transient_end - 1e-12:
                 self._open_window()
@@ -323,11 +335,11 @@ class BallMill3DCase(Case):
         self.ball_mass = float(masses[sim.free].sum()) - self.ore_mass0
         if self.replace is not None:
             self.replace.assign_fracture_energies(sim, np.flatnonzero(ore))
-        self.total_steps = int(round(v["revolutions"] * self.period / sim.dt / self.record_steps)) \
-            * self.record_steps
         self.transient_end = v["transient_revolutions"] * self.period
-        self.mill_start_step = sim.step
         self.last = DriveMark(*obs.drive_state(sim), sim.time)
+        self.total_records = int(round(v["revolutions"] * self.period / sim.dt
+                                       / self.record_steps()))
+        self.records_done = 0
         self.window = None
         if self.transient_end <= 0:
             self._open_window()
@@ -354,6 +366,7 @@ class BallMill3DCase(Case):
                     kinetic_energy=sim.kinetic_energy(), n_particles=sim.n_particles,
                     breakage_events_series=len(self.replace.events) if self.replace else 0)
         self.last = DriveMark(impulse, work, sim.time)
+        self.records_done += 1
         self._psd_record()
 
     def _psd_record(self):
@@ -381,12 +394,12 @@ class BallMill3DCase(Case):
                     ev.t10, self.sieves / ev.parent_diameter, self.mat)
 
     def done(self):
-        return self.stage == "mill" and self.sim.step - self.mill_start_step >= self.total_steps
+        return self.stage == "mill" and self.records_done >= self.total_records
 
     def progress(self):
         if self.stage != "mill":
             return 0.0, self.stage
-        return ((self.sim.step - self.mill_start_step) / self.total_steps,
+        return (self.records_done / self.total_records,
                 f"{self.mill_time() / self.period:.2f} rev, "
                 f"{len(self.replace.events) if self.replace else 0} breakage events")
 

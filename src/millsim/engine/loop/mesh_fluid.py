@@ -12,6 +12,7 @@ import math
 
 from ..kinematics import W_AX, W_COS, W_PX, W_SIN
 from ..mesh import rotate, triangle_contact
+from .wall_pass import fluid_wall_reaction
 
 
 def mesh_fluid_kernel(layout, flu):
@@ -56,16 +57,7 @@ def mesh_fluid_kernel(layout, flu):
             if AUDIT:
                 S.audit_part[blk, 3] += Dn
                 S.audit_part[blk, 4] += Dt
-            # reaction on the wall, as for an analytic wall (wall_pass.walls_kernel): the force
-            # through the sphere's centre plus the couple, about the wall's point; the power given
-            wp = S.wall_part[blk, iw]
-            wp[0] -= g0
-            wp[1] -= g1
-            wp[2] -= g2
-            wp[3] -= cp1 * g2 - cp2 * g1 + c0
-            wp[4] -= cp2 * g0 - cp0 * g2 + c1
-            wp[5] -= cp0 * g1 - cp1 * g0 + c2
-            wp[6] -= pw
+            fluid_wall_reaction(S.wall_part[blk, iw], g0, g1, g2, c0, c1, c2, cp0, cp1, cp2, pw)
             return F0 + g0, F1 + g1, F2 + g2, T0 + c0, T1 + c1, T2 + c2
         return F0, F1, F2, T0, T1, T2
 

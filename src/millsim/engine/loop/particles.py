@@ -10,6 +10,7 @@ from ..integrators import gear_correct, gear_predict, verlet_drift, verlet_kick
 from ..kinematics import B_AX, B_CX, B_KIND, B_RAMP, ROTATE, W_PX, body_pose
 from .layout import BLOCK, ERR_NONFINITE, ERR_SPEED, N_AUDIT, SLOT_BASE
 from .spectra import PAIR, spectra_book
+from .wall_pass import fluid_wall_reaction
 
 
 @njit(cache=True)
@@ -223,15 +224,10 @@ def lub_finish_kernel(spec, layout, finish):
                     wall = W.table[iw]
                     cp0, cp1, cp2 = (x[i, 0] - wall[W_PX], x[i, 1] - wall[W_PX + 1],
                                      x[i, 2] - wall[W_PX + 2])
-                    wp = wall_part[blk, iw]
-                    wp[0] -= g0
-                    wp[1] -= g1
-                    wp[2] -= g2
-                    wp[3] -= cp1 * g2 - cp2 * g1 + c0
-                    wp[4] -= cp2 * g0 - cp0 * g2 + c1
-                    wp[5] -= cp0 * g1 - cp1 * g0 + c2
-                    wp[6] -= (g0 * o[RW_VJ] + g1 * o[RW_VJ + 1] + g2 * o[RW_VJ + 2]
-                              + c0 * o[RW_VJ + 3] + c1 * o[RW_VJ + 4] + c2 * o[RW_VJ + 5])
+                    fluid_wall_reaction(
+                        wall_part[blk, iw], g0, g1, g2, c0, c1, c2, cp0, cp1, cp2,
+                        g0 * o[RW_VJ] + g1 * o[RW_VJ + 1] + g2 * o[RW_VJ + 2]
+                        + c0 * o[RW_VJ + 3] + c1 * o[RW_VJ + 4] + c2 * o[RW_VJ + 5])
                     if AUDIT:
                         pn, pt = row_power(o, tau)
                         audit_part[blk, 3] += pn

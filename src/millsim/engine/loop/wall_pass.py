@@ -94,6 +94,20 @@ def _wall_reaction(wp, x, i, ai, n0, n1, n2, g0, g1, g2, u0, u1, u2, wall):
     wp[6] -= g0 * u0 + g1 * u1 + g2 * u2
 
 
+@njit(inline="always", cache=True, fastmath=FAST)
+def fluid_wall_reaction(wp, g0, g1, g2, c0, c1, c2, cp0, cp1, cp2, pw):
+    """Reaction on a wall of a film's force g and couple c on a sphere: the force through the
+    sphere's centre (lever cp from the wall's point p) plus the couple, and the power pw the wall
+    gives. One for analytic walls, meshes and the implicit solve's rows."""
+    wp[0] -= g0
+    wp[1] -= g1
+    wp[2] -= g2
+    wp[3] -= cp1 * g2 - cp2 * g1 + c0
+    wp[4] -= cp2 * g0 - cp0 * g2 + c1
+    wp[5] -= cp0 * g1 - cp1 * g0 + c2
+    wp[6] -= pw
+
+
 def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes, mesh_fluid=None):
     """Contacts (and lubrication) of free particle i with every wall; the reaction on each wall
     goes to its block's partial sums. ``mesh_fluid``: the film at mesh walls (loop.mesh_fluid;
@@ -153,16 +167,8 @@ def walls_kernel(spec, law, brk, flu, layout, wall_force, meshes, mesh_fluid=Non
                 if AUDIT:
                     audit_part[blk, 3] += Dn
                     audit_part[blk, 4] += Dt
-                # Reaction on the wall: force through the sphere's centre plus the couple,
-                # about the wall's point p, and the power given.
-                wp = wall_part[blk, iw]
-                wp[0] -= g0
-                wp[1] -= g1
-                wp[2] -= g2
-                wp[3] -= cp1 * g2 - cp2 * g1 + c0
-                wp[4] -= cp2 * g0 - cp0 * g2 + c1
-                wp[5] -= cp0 * g1 - cp1 * g0 + c2
-                wp[6] -= pw
+                fluid_wall_reaction(wall_part[blk, iw], g0, g1, g2, c0, c1, c2, cp0, cp1, cp2,
+                                    pw)
             if xi <= 0.0:
                 if SPECTRA:  # collision spectra: the collision with the wall ends
                     spectra_close_wall(W.hist[i, iw], SPW, dt, S, blk, P.material[i])
