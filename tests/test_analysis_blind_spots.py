@@ -34,11 +34,17 @@ def test_observed_order_of_exact_power_laws_up_to_the_bracket_end(p):
     assert acc.observed_order(h[::-1], (-2.0 * h**p)[::-1]) == pytest.approx(p, abs=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="observed_order: f(lo) == 0 (p exactly 0.05) sends the "
-                   "bisection to the upper end 20; reported to the lead, src/ not changed here")
 def test_observed_order_at_the_lower_bracket_end():
+    """p = 0.05 exactly, the bracket's lower end, where f(lo) is exactly 0: the bisection used to
+    walk to the upper end and return 20."""
     h = np.array([1.0, 2.0, 3.0])
     assert acc.observed_order(h, h**0.05) == pytest.approx(0.05, abs=1e-9)
+
+
+def test_a_repeated_step_has_no_observed_order():
+    """Two rungs at one step: no order (NaN), not a math domain error from log(0)."""
+    assert math.isnan(acc.observed_order([1.0, 2.0, 2.0], [1.0, 1.5, 1.7]))
+    assert math.isnan(acc.observed_order([1.0, 1.0, 2.0], [1.0, 1.5, 1.7]))
 
 
 # ---- accuracy: the reference and its standard error --------------------------------------------

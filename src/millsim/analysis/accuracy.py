@@ -142,7 +142,8 @@ def observed_order(h, y):
     """Order p of y(h) = y0 + C h^p through three points (any spacing of h).
 
     Solves (y3 - y2) / (y2 - y1) = (h3^p - h2^p) / (h2^p - h1^p) for p, with the points sorted by
-    h. NaN when the differences change sign (not monotone) or no p in (0.05, 20) fits."""
+    h. NaN when the differences change sign (not monotone), a step repeats or no p in [0.05, 20]
+    fits."""
     h = np.asarray(h, dtype=float)
     y = np.asarray(y, dtype=float)
     if h.size != 3 or y.size != 3 or not np.all(np.isfinite(np.r_[h, y])):
@@ -150,8 +151,8 @@ def observed_order(h, y):
     k = np.argsort(h)
     h, y = h[k], y[k]
     d1, d2 = y[1] - y[0], y[2] - y[1]
-    if d1 == 0 or d2 == 0 or np.sign(d1) != np.sign(d2) or h[0] <= 0:
-        return math.nan
+    if d1 == 0 or d2 == 0 or np.sign(d1) != np.sign(d2) or h[0] <= 0 or h[1] in (h[0], h[2]):
+        return math.nan  # a repeated step has no order
     target = math.log(d2 / d1)
 
     def f(p):
@@ -161,6 +162,8 @@ def observed_order(h, y):
     flo, fhi = f(lo), f(hi)
     if flo * fhi > 0:
         return math.nan
+    if flo == 0 or fhi == 0:  # the root at an end of the bracket (the bisection keeps neither)
+        return lo if flo == 0 else hi
     for _ in range(200):  # bisection: f increases with p
         mid = 0.5 * (lo + hi)
         fm = f(mid)
