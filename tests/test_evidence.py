@@ -28,7 +28,8 @@ def test_evidence_lists_the_stale_page_with_its_section_and_counts_the_current(t
     assert status == {"fresh.md": "current", "old.md": "stale", "bare.md": "no engine hash"}
     assert (result["total"], result["current"], result["stale"], result["no_hash"]) == (3, 1, 1, 1)
     old = next(p for p in result["pages"] if p["page"].endswith("old.md"))
-    assert old["stale"] == [dict(line=6, section="Quick study", engine=STALE_HASH)]
+    assert old["stale"] == [dict(line=6, section="Quick study", engine=STALE_HASH, old=False,
+                                 why="no commit of this repository's history has this engine hash")]
     # the command: a count line first, then the pages that are not current
     assert main(["evidence", "--docs", str(folder), "--json", str(tmp_path / "e.json")]) == 0
     out = capsys.readouterr().out.splitlines()
@@ -59,3 +60,160 @@ def test_the_word_engine_ending_the_line_before_reaches_back_60_characters():
     within = "engine" + " " * 54 + "\n" + hexes  # "engine" starts the line's last 60 characters
     assert evidence.engine_hashes(within) == [(2, "", hexes)]
     assert evidence.engine_hashes("engine" + " " * 55 + "\n" + hexes) == []
+
+
+# --- judged by the physics a page uses (its scenes' imports), not by the whole hash ---
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from millsim.analysis import physics_files
+
+
+def _git(repo, *args):
+    subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True,
+                   env={**os.environ, "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t",
+                        "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"})
+
+
+def _toy_repository(repo):
+    """A package laid out like millsim: scene ``one`` imports the engine core, scene ``two`` the
+    core and a model (inside a function: static imports at any depth count)."""
+    package = repo / "src" / "millsim"
+    files = {
+        "__init__.py": "LAYERS = (('base', ('util', 'io')), ('engine', ('engine',)), "
+                       "('models', ('models',)), ('scenes', ('scenes',)), ('studies', ('cli',)))\n",
+        "io.py": "X = 1\n", "util/__init__.py": "", "engine/__init__.py": "",
+        "engine/core.py": "STEP = 1.0\n", "models/__init__.py": "", "models/extra.py": "K = 2\n",
+        "scenes/__init__.py": "", "scenes/one.py": "from ..engine import core\n",
+        "scenes/two.py": "from ..engine.core import STEP\n\ndef run():\n"
+                         "    from millsim.models import extra\n    return extra.K\n",
+        "cli.py": "print('not physics')\n",
+    }
+    for name, text in files.items():
+        (package / name).parent.mkdir(parents=True, exist_ok=True)
+        (package / name).write_text(text)
+    _git(repo, "init", "-q")
+    _git(repo, "add", ".")
+    _git(repo, "commit", "-q", "-m", "toy")
+    return package
+
+
+def _today(package):
+    return physics_files.tree_hash({p: (package / p).read_bytes()
+                                    for p in physics_files.physics_paths(package)})
+
+
+def test_a_page_stays_current_when_only_another_scenes_physics_changed(tmp_path):
+    repo = tmp_path / "repo"
+    package = _toy_repository(repo)
+    assert physics_files.scene_files(["one"], package) == [
+        "engine/__init__.py", "engine/core.py", "scenes/__init__.py", "scenes/one.py"]
+    assert "models/extra.py" in physics_files.scene_files(["two"], package)
+    then = _today(package)  # the hash the committed tree records
+    history = physics_files.History(repo)
+    assert history.commit_hash("HEAD") == then
+    history.close()
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "one.md").write_text(f"# One\n\nPhysics: scene `one`\n\nengine {then}: 1.5 W\n")
+    (docs / "two.md").write_text(f"# Two\n\nPhysics: scene `two`\n\nengine {then}: 2.5 W\n")
+    (docs / "whole.md").write_text(f"# Whole\n\nengine {then}: 3.5 W\n")
+    # a change to a model only scene two imports, and to a file outside the physics
+    (package / "models" / "extra.py").write_text("K = 3\n")
+    (package / "cli.py").write_text("print('changed')\n")
+    now = _today(package)
+    assert now != then
+    result = evidence.evidence(docs, now, package)
+    status = {p["page"].rsplit("/", 1)[1]: p for p in result["pages"]}
+    assert status["one.md"]["status"] == evidence.CURRENT and not status["one.md"]["stale"]
+    assert status["two.md"]["status"] == evidence.STALE
+    assert "models/extra.py changed" in status["two.md"]["stale"][0]["why"]
+    assert status["whole.md"]["status"] == evidence.STALE  # no scenes named: the whole hash
+    # the engine both scenes use: both stale
+    (package / "engine" / "core.py").write_text("STEP = 0.5\n")
+    result = evidence.evidence(docs, _today(package), package)
+    assert result["current"] == 0 and result["stale"] == 3
+
+
+def test_an_unknown_scene_on_a_page_is_refused_naming_the_page(tmp_path):
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "p.md").write_text(f"Physics: scene `nowhere`\n\nengine {STALE_HASH}\n")
+    with pytest.raises(ValueError, match=r"p\.md: scene 'nowhere'"):
+        evidence.evidence(docs)
+
+
+def test_a_hash_kept_for_comparison_neither_counts_nor_makes_the_page_stale():
+    today = millsim.provenance_hash()
+    both = f"today, engine {today}: 1.5 W; old engine {STALE_HASH}: 1.7 W\n"
+    status, listed = evidence.page_status(both, today)
+    assert status == evidence.CURRENT
+    assert [(s["engine"], s["old"]) for s in listed] == [(STALE_HASH, True)]
+    # only old numbers: nothing on the page is current
+    assert evidence.page_status(f"previous engine {STALE_HASH}\n", today)[0] == evidence.STALE
+    # "old" must stand right before "engine": an old number elsewhere on the line does not count
+    assert evidence.page_status(f"old values; engine {STALE_HASH}\n", today)[0] == evidence.STALE
+
+
+@pytest.mark.skipif(physics_files.repository() is None, reason="not a git checkout")
+def test_the_history_hashes_a_commit_as_provenance_hash_does():
+    repo = physics_files.repository()
+    dirty = subprocess.run(["git", "-C", str(repo), "status", "--porcelain", "--", "src/millsim"],
+                           capture_output=True, text=True, check=True).stdout
+    if any(line[3:].split("/")[2] in ("engine", "models", "scenes", "util", "io.py")
+           for line in dirty.splitlines()):
+        pytest.skip("physics sources edited and not committed: HEAD is not today's engine")
+    history = physics_files.History(repo)
+    assert history.commit_hash("HEAD") == millsim.provenance_hash()
+    history.close()
+
+
+def test_importing_a_scene_pulls_in_no_physics_module_outside_its_files():
+    """The static set must hold every physics module a scene's import loads (a module loaded by
+    name, e.g. through importlib, would be missed by the static reading). One process imports
+    the modules all scenes share, then forks one child per scene."""
+    from millsim.scenes import SCENE_MODULES
+
+    code = """
+import importlib, os, sys
+
+def child(scene, keep):
+    read, write = os.pipe()
+    if os.fork() == 0:
+        importlib.import_module('millsim.scenes.' + scene)
+        os.write(write, ' '.join(m for m in sys.modules if keep(m)).encode())
+        os._exit(0)
+    os.close(write)
+    with os.fdopen(read) as pipe:
+        names = pipe.read().split()
+    os.wait()
+    return names
+
+# the modules in every scene's set, loaded once here: a child still lists them (it inherits
+# them), so nothing they pull in goes unchecked
+for name in sys.argv[1].split(','):
+    importlib.import_module(name)
+for scene in sys.argv[2:]:
+    print(scene, ' '.join(child(scene, lambda m: m.startswith('millsim.'))))
+"""
+    scenes = SCENE_MODULES
+    common = set.intersection(*(set(physics_files.scene_files([s])) for s in scenes))
+    modules = sorted("millsim." + path.removesuffix(".py").removesuffix("/__init__").replace("/", ".")
+                     for path in common)
+    out = subprocess.run([sys.executable, "-c", code, ",".join(modules), *scenes],
+                         capture_output=True,
+                         text=True, check=True).stdout.splitlines()
+    assert [line.split()[0] for line in out] == list(scenes)
+    physics = set(physics_files.physics_paths())
+    for line in out:
+        scene, *loaded = line.split()
+        assert f"millsim.scenes.{scene}" in loaded
+        files = set(physics_files.scene_files([scene]))
+        for module in loaded:
+            rel = physics_files._module_file(module, physics_files.PACKAGE)
+            rel = rel.relative_to(physics_files.PACKAGE).as_posix()
+            assert rel not in physics or rel in files, (scene, rel)

@@ -161,6 +161,10 @@ def test_page_names_the_aggregates_engine_as_evidence_finds_it(study):
     assert {h for _, _, h in evidence.engine_hashes(text)} == {ds.attrs["engine_hash"]}
     assert evidence.page_status(text, millsim.provenance_hash())[0] == evidence.CURRENT
     assert evidence.page_status(text, "0" * 12)[0] == evidence.STALE
+    # the page names its scene, which exists, so evidence can judge it by that scene's files
+    scene = {"ballmill": "ballmill2d"}.get(name, name)
+    assert evidence.page_scenes(text) == (scene,)
+    assert "scenes/" + scene + ".py" in evidence.Judge().files((scene,))
 
 
 def test_page_states_the_cost_as_the_sum_of_the_cases_wall_times(study):

@@ -148,11 +148,14 @@ class PageStudy:
     # prefixes of the fixed parameters
     swept: tuple[str, ...] = ()
     fixed_prefixes: tuple[str, ...] = ("param_",)
+    # the scenes whose physics the numbers come from (millsim evidence judges the page by them;
+    # default: the study's name)
+    scenes: tuple[str, ...] = ()
 
 
 STUDIES = {
     "ballmill": PageStudy("Ball mill 2D at the paper's scale", "Buchholtz, Freund & Poeschel (2000)",
-                          ("ballmill", "ballmill_forcechain"), _ballmill),
+                          ("ballmill", "ballmill_forcechain"), _ballmill, scenes=("ballmill2d",)),
     "bed_impact": PageStudy("Particle-bed impact at the paper's scale",
                             "Tavares et al. (2021), section 4.2", ("bed_breakage",), _bed_impact),
     "single_particle": PageStudy("Single-particle verification at the paper's scale",
@@ -231,7 +234,9 @@ def page(study, ds, source, figures=None, out="page.md", catalogue=None):
             f"- engine {engine} (millsim {ds.attrs.get('millsim_version', '?')}; the aggregate "
             "refuses cases of two engines, so this is every case's)",
             f"- aggregate written {ds.attrs.get('created_utc', 'at an unrecorded date')}",
-            f"- cost: {_cost(ds)}", "", "## What was run", "", *_what_was_run(spec, ds), ""]
+            f"- cost: {_cost(ds)}", "",
+            "Physics: scene " + ", ".join(f"`{s}`" for s in spec.scenes or (study,)), "",
+            "## What was run", "", *_what_was_run(spec, ds), ""]
     for caption, table in spec.tables(ds):
         text += [f"## {caption}", "", *table, ""]
     text += ["## Figures", "", *_figures(study, figures, out, catalogue or {})]
