@@ -1,9 +1,14 @@
 """`millsim evidence`: the results pages computed with another engine than today's (issue 48)."""
 
 import json
+import os
+import subprocess
+import sys
+
+import pytest
 
 import millsim
-from millsim.analysis import evidence
+from millsim.analysis import evidence, physics_files
 from millsim.cli import main
 
 STALE_HASH = "0123456789ab"  # not today's: 12 hex digits no source tree hashes to by design
@@ -63,14 +68,6 @@ def test_the_word_engine_ending_the_line_before_reaches_back_60_characters():
 
 
 # --- judged by the physics a page uses (its scenes' imports), not by the whole hash ---
-
-import os
-import subprocess
-import sys
-
-import pytest
-
-from millsim.analysis import physics_files
 
 
 def _git(repo, *args):

@@ -119,6 +119,7 @@ class History:
         self._blobs = {}
         self._trees = {}
         self._cat = None
+        self._commits = None
 
     def _git(self, *args):
         return subprocess.run(["git", "-C", str(self.repo), *args], capture_output=True,
@@ -154,13 +155,14 @@ class History:
         order = _physics_order(files, parts)
         return tree_hash({path: self.blob(files[path]) for path in order})
 
-    @lru_cache(maxsize=None)
     def commits(self):
         """{engine hash: the newest commit with it} over the history of HEAD.
 
         Only the commits that touched the package are read (any other has the tree of one of
         them), and a commit's hash never changes, so each is computed once per machine and kept
         in ``$XDG_CACHE_HOME/millsim/engine-commits.json``."""
+        if self._commits is not None:
+            return self._commits
         cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "millsim" \
             / "engine-commits.json"
         try:
@@ -179,6 +181,7 @@ class History:
                 tmp.replace(cache)
             except OSError:
                 pass
+        self._commits = found
         return found
 
     def close(self):
