@@ -15,6 +15,7 @@ import pytest
 import xarray as xr
 
 import millsim
+from millsim.analysis import ballmill as ballmill_analysis
 from millsim.analysis import evidence, results_page, tavares_verification
 from millsim.analysis.aggregate import aggregate
 from millsim.cli import main
@@ -187,7 +188,8 @@ def test_figure_links_resolve_and_the_undrawn_one_is_named(study):
 def test_ballmill_table_is_the_rate_and_power_computed_here(tmp_path):
     agg, rows, _ = ballmill(tmp_path)
     text = results_page.page("ballmill", read_case(agg), agg)
-    (got,) = tables(text).values()
+    got = tables(text)["Comminution rate and drive power vs n/n_c (95 % half-widths of block "
+                       "averages)"]
     assert len(got) == len(rows)
     for cells, (n, rate, ci, rel, rel_ci, power) in zip(got, rows):
         values = [*numbers(cells[0]), *numbers(cells[1]), *numbers(cells[2]), *numbers(cells[3])]
@@ -264,3 +266,55 @@ def test_bad_input_ends_with_one_line_naming_it(tmp_path, capsys):
     assert main(["results-page", "stirred_mill", str(agg), "--figures", str(tmp_path / "no"),
                  "--out", str(out)]) == 2
     assert "--figures" in capsys.readouterr().err
+
+
+# --- the ball mill's page set against the paper's statements (Buchholtz et al. 2000) ---
+
+PAPER_SPEEDS = np.array([0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0])
+
+
+def _rates(rate, power=None):
+    data = {"comminution_rate": ("n_over_nc", np.asarray(rate, float))}
+    if power is not None:
+        data["mean_drive_power"] = ("n_over_nc", np.asarray(power, float))
+    return xr.Dataset(data, coords={"n_over_nc": PAPER_SPEEDS})
+
+
+def test_the_bond_austin_peak_is_the_maximum_of_its_formula():
+    phi = np.linspace(0.5, 1.2, 700001)  # brute force, the formula written out here
+    factor = phi * (1.0 - 0.1 / 2.0 ** (9.0 - 10.0 * phi))
+    assert ballmill_analysis.bond_austin_peak() == pytest.approx(phi[np.argmax(factor)], abs=2e-6)
+    assert ballmill_analysis.bond_austin_peak() == pytest.approx(0.941, abs=1e-3)  # docstring's value
+
+
+@pytest.mark.parametrize("vertex, verdict", [(1.0, "followed"), (0.8, "followed"),
+                                             (1.2, "followed"), (0.7, "not followed"),
+                                             (1.3, "not followed")])
+def test_the_peak_claim_is_the_vertex_of_an_exact_parabola(vertex, verdict):
+    # an exact parabola through the three points around its top: the vertex is recovered
+    rate = 100.0 - 40.0 * (PAPER_SPEEDS - vertex) ** 2
+    claim = ballmill_analysis.paper_claims(_rates(rate))[0]
+    assert float(claim[1].split("= ")[1].split()[0]) == pytest.approx(vertex, abs=1e-3)
+    assert claim[3] == verdict
+
+
+def test_a_maximum_at_an_end_of_the_sweep_is_not_testable():
+    claim = ballmill_analysis.paper_claims(_rates(PAPER_SPEEDS * 10.0))[0]
+    assert claim[3] == "not testable here" and "2" in claim[1]
+
+
+@pytest.mark.parametrize("edge, verdict", [(0.24, "followed"), (0.26, "not followed")])
+def test_the_fall_off_claim_reads_the_largest_rate_at_both_ends(edge, verdict):
+    rate = np.array([0.1, 0.2, 0.7, 1.0, 0.8, 0.1, 0.0, 0.0])
+    rate[1] = edge  # n/n_c = 0.5 is the largest of the ends
+    claim = ballmill_analysis.paper_claims(_rates(rate))[1]
+    assert claim[3] == verdict and f"{edge:.3g}" in claim[1]
+    rate[1], rate[6] = 0.1, edge  # now at 1.75
+    assert ballmill_analysis.paper_claims(_rates(rate))[1][3] == verdict
+
+
+def test_the_power_row_reports_its_vertex_beside_the_reference():
+    power = 2.0 - 3.0 * (PAPER_SPEEDS - 0.9) ** 2
+    row = ballmill_analysis.paper_claims(_rates(100.0 - 40.0 * (PAPER_SPEEDS - 1.0) ** 2, power))[2]
+    assert "power vertex at n/n_c = 0.9;" in row[1] and "Bond/Austin peak 0.941" in row[1]
+    assert row[3] == "not testable here"

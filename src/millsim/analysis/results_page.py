@@ -65,8 +65,13 @@ def _ballmill(ds):
             for n in ds["n_over_nc"].values]
     header = ["n/n_c", f"comminution rate [{_units(ds, 'comminution_rate')}]",
               "relative rate [1]", f"drive power [{_units(ds, 'mean_drive_power')}]"]
+    from .ballmill import paper_claims
+
+    claims = [list(row) for row in paper_claims(ds)]
     return [("Comminution rate and drive power vs n/n_c (95 % half-widths of block averages)",
-             _table(header, rows))]
+             _table(header, rows)),
+            ("Against Buchholtz, Freund & Poeschel (2000)",
+             _table(["the paper's statement", "here", "rule", "verdict"], claims))]
 
 
 BED_DIMS = ("material", "rings", "layers", "impact_energy")

@@ -15,23 +15,11 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.ticker import LogFormatter, MaxNLocator
 
+from ..analysis.ballmill import BOND_AUSTIN_END, bond_austin_speed_factor
 from .style import SYMBOL, few_points_note, label, points
 
 SPEED = "n_over_nc"
-REFERENCE_END = 1.232  # zero of the Bond/Austin speed factor
-
-
-def bond_austin_speed_factor(phi):
-    """Speed factor phi (1 - 0.1 / 2^(9 - 10 phi)) of the Bond and Austin mill-power equations.
-
-    Normalised to its maximum (at phi = 0.941); the empirical fit turns negative beyond
-    phi = REFERENCE_END. A shape reference only: it describes power draw, not comminution rate
-    (reference/ballmill.md, sections 2.2-3).
-    """
-    def factor(p):
-        return p * (1.0 - 0.1 / 2.0 ** (9.0 - 10.0 * p))
-
-    return factor(np.asarray(phi, dtype=float)) / factor(np.linspace(0.0, 1.2, 12001)).max()
+REFERENCE_END = BOND_AUSTIN_END
 
 
 def _label(var: xr.DataArray, name: str | None = None) -> str:
