@@ -382,3 +382,18 @@ def test_slope_interval_is_least_squares_by_hand(x, y, level):
 def test_slope_interval_of_an_exact_line_has_no_width():
     slope, half = stats.slope_interval([0.0, 1.0, 2.0, 3.0], [1.0, 3.0, 5.0, 7.0])
     assert slope == pytest.approx(2.0, rel=1e-15) and half == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_count_outside_its_trials_is_refused_and_an_estimate_outside_its_interval_is_unknown():
+    """Found by the seed-49 review (2026-12-01): a negative count read the pmf from its end, an
+    estimate outside its own interval gave p > 1, and a model exactly at the estimate gave p = 1
+    or NaN depending on which end of the interval was known."""
+    for k in (-1, 6):
+        with pytest.raises(ValueError, match="outside 0..5"):
+            tv.binomial_p_value(k, 5, 0.5)
+    # estimate 1.0 above its interval [0.2, 0.8]: no error on the model's side to scale by
+    assert np.isnan(tv.interval_p_value(1.0, 0.2, 0.8, 1.5))
+    assert np.isnan(tv.interval_p_value(0.1, 0.2, 0.8, 0.0))
+    # the model at the estimate: p = 1 whichever end is known
+    for lo, hi in ((0.2, np.nan), (np.nan, 0.8), (0.2, 0.8)):
+        assert tv.interval_p_value(0.5, lo, hi, 0.5) == 1.0

@@ -302,3 +302,15 @@ def test_the_page_without_a_verdict_or_a_table_parses_too():
     assert _rst_warnings(report.landing_rst(_summary([], table=False))) == ""
 
 
+
+
+def test_an_undecided_check_is_not_counted_as_passed():
+    """A rule that could not be applied (n/a, e.g. a sweep that does not bracket the maximum)
+    has not passed: both heads count it apart (found by the seed-49 review, 2026-12-01)."""
+    summary = _summary([report.PASSED, report.UNDECIDED, report.PASSED, report.DEVIATION])
+    assert report.verdict_lines(summary)[0] == (
+        "millsim verdicts: all 2 tested passed, 1 documented deviation, 1 undecided (n/a)")
+    head = [s for s in report.landing_rst(summary).splitlines() if s.startswith("All ")]
+    assert head and head[0].startswith("All 2 checks passed. 1 undecided (n/a")
+    assert report.verdict_lines(_summary([report.PASSED, report.UNDECIDED]))[0] == \
+        "millsim verdicts: all 1 passed, 1 undecided (n/a)"

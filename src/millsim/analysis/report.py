@@ -432,13 +432,16 @@ def verdict_lines(summary):
     verdicts = ordered(summary["verdicts"])
     failed = sum(v["passed"] is False for v in verdicts)
     deviations = sum(_status(v) == DEVIATION for v in verdicts)
+    undecided = sum(_status(v) == UNDECIDED for v in verdicts)
     lines = [f"{_status(v):4s}  {v['study']}: {v['check']}: {v['value']}  "
              f"[rule: {v['rule']}]" for v in verdicts]
-    tested = len(verdicts) - deviations
+    tested = len(verdicts) - deviations - undecided
     head = (f"millsim verdicts: {failed} of {len(verdicts)} FAILED" if failed
             else f"millsim verdicts: all {tested} passed" if not deviations
             else f"millsim verdicts: all {tested} tested passed, {deviations} documented "
                  f"deviation{'s' if deviations > 1 else ''}")
+    if undecided and not failed:  # a check its rule could not decide has not passed
+        head += f", {undecided} undecided (n/a)"
     if summary.get("synthetic_reference"):
         lines.append("NOTE  the stirred-mill reference power is a SYNTHETIC twin, not a "
                      "measurement (config/reference/SOURCES.md)")
@@ -473,9 +476,12 @@ def landing_rst(summary):
     verdicts = ordered(summary["verdicts"])
     failed = sum(v["passed"] is False for v in verdicts)
     deviations = sum(_status(v) == DEVIATION for v in verdicts)
-    tested = len(verdicts) - deviations
+    undecided = sum(_status(v) == UNDECIDED for v in verdicts)
+    tested = len(verdicts) - deviations - undecided
     head = (f"**{failed} of {tested} checks FAILED** (listed first)." if failed
             else f"All {tested} checks passed.")
+    if undecided and not failed:  # a check its rule could not decide has not passed
+        head += f" {undecided} undecided (n/a: the rule could not be applied)."
     if deviations:
         head += (f" {deviations} documented deviation{'s' if deviations > 1 else ''} of the "
                  "model (reported with its number, not tested).")

@@ -83,12 +83,15 @@ DEVIATIONS = {"first_reach": "breaks at the fracture energy, t10 below eq 7 (doc
 def binomial_p_value(k, n, p):
     """Exact two-sided binomial p-value of ``k`` successes in ``n`` trials at probability ``p``
     (minimum-likelihood method, as scipy.stats.binomtest): the probability of every count no
-    more likely than ``k``. Vectorised over k, n, p; NaN where an input is not finite."""
+    more likely than ``k``. Vectorised over k, n, p; NaN where an input is not finite; a count
+    outside 0..n is a ValueError (an index below 0 would read the pmf from its end)."""
     k, n, p = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (k, n, p)))
     out = np.full(k.shape, np.nan)
     for i in np.ndindex(k.shape):
         if not (np.isfinite(k[i]) and np.isfinite(n[i]) and np.isfinite(p[i])) or n[i] < 1:
             continue
+        if not 0 <= round(k[i]) <= n[i]:
+            raise ValueError(f"binomial_p_value: count {k[i]:g} outside 0..{n[i]:g}")
         pmf = _binomial_pmf(int(n[i]), float(p[i]))
         # relative slack as scipy's binomtest: counts as likely as k up to rounding
         out[i] = min(1.0, float(pmf[pmf <= pmf[int(round(k[i]))] * (1 + 1e-7)].sum()))
@@ -104,14 +107,17 @@ def _binomial_pmf(n, p):
 
 def interval_p_value(estimate, lo, hi, model, level_z=Z95):
     """Two-sided p-value of ``model`` against ``estimate`` whose interval [lo, hi] is a normal
-    +- level_z standard errors (the side towards the model gives the error); NaN where unknown."""
+    +- level_z standard errors (the side towards the model gives the error); NaN where unknown,
+    also where the estimate lies outside its own interval on that side (no error to scale by);
+    1 where the model is the estimate, whatever is known of the interval."""
     from scipy import stats
 
     estimate, lo, hi, model = (np.asarray(x, dtype=float) for x in (estimate, lo, hi, model))
     half = np.where(model >= estimate, hi - estimate, estimate - lo)
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.abs(model - estimate) / (half / level_z)
-    z = np.where((half <= 0) & (model == estimate), 0.0, z)
+    z = np.where(half < 0, np.nan, z)
+    z = np.where(model == estimate, 0.0, z)
     return 2.0 * stats.norm.sf(z)
 
 
