@@ -33,6 +33,13 @@ from millsim.scenes.base import get_scene
 
 validate(config, schema="../schemas/config.schema.yaml")
 
+# A run killed outright leaves Snakemake's lock, and the same command would refuse to start:
+# removed here when no Snakemake process on this machine runs in the directory (millsim.workflow).
+if config.get("stale_locks", "remove") == "remove":
+    from millsim.workflow import remove_stale_locks
+
+    remove_stale_locks(say=lambda line: print(line, file=sys.stderr))
+
 # The rules call `millsim`; the one beside this Python comes first, so that a virtual
 # environment works without being activated.
 os.environ.update(
