@@ -16,6 +16,7 @@ import xarray as xr
 
 import millsim
 from millsim.analysis import ballmill as ballmill_analysis
+from millsim.analysis import bed_impact as bed_analysis
 from millsim.analysis import evidence, results_page, tavares_verification
 from millsim.analysis.aggregate import aggregate
 from millsim.cli import main
@@ -199,7 +200,8 @@ def test_ballmill_table_is_the_rate_and_power_computed_here(tmp_path):
 
 def test_bed_table_is_mean_and_sd_over_seeds_of_the_conditions_run(tmp_path):
     agg, rows, _ = bed(tmp_path)
-    (got,) = tables(results_page.page("bed_impact", read_case(agg), agg)).values()
+    got = tables(results_page.page("bed_impact", read_case(agg), agg))[
+        "Broken mass and capture radius per material x bed (mean +- sd over seeds)"]
     # only the conditions some sweep ran: the sparse grid's empty points are left out
     assert sorted(r[:4] for r in got) == sorted([m, str(r), str(la), f"{e:g}"]
                                                 for m, r, la, e, *_ in rows)
@@ -318,3 +320,81 @@ def test_the_power_row_reports_its_vertex_beside_the_reference():
     row = ballmill_analysis.paper_claims(_rates(100.0 - 40.0 * (PAPER_SPEEDS - 1.0) ** 2, power))[2]
     assert "power vertex at n/n_c = 0.9;" in row[1] and "Bond/Austin peak 0.941" in row[1]
     assert row[3] == "not testable here"
+
+
+# --- the bed page set against the trends of Tavares et al. (2021), section 4.2 ---
+
+BED_ENERGIES = [1.39, 3.05, 3.13, 5.56, 8.69]
+BED_SIEVES = [4.75e-3, 1.70e-3, 1.18e-3, 8.5e-4]
+
+
+def _bed(fraction, radius=None, passing=None):
+    """A bed aggregate's means: ``fraction`` {(material, rings, layers): value at 3.05 J};
+    ``radius`` and ``passing`` of the 3-ring copper ore monolayer per energy of BED_ENERGIES."""
+    mats, rings, layers = ["copper_ore", "granulite", "limestone"], [0, 1, 2, 3], [1, 3, 5]
+    shape = (3, 4, 3, 5)
+    frac, rad = np.full(shape, np.nan), np.full(shape, np.nan)
+    pas = np.full(shape + (4,), np.nan)
+    for (m, r, n), v in fraction.items():
+        frac[mats.index(m), rings.index(r), layers.index(n), 1] = v
+    ladder = (0, rings.index(3), 0)
+    for k in range(len(BED_ENERGIES)):
+        if radius is not None:
+            rad[ladder + (k,)] = radius[k]
+            frac[ladder + (k,)] = 0.2
+        if passing is not None:
+            # the 1.18 mm sieve holds the value; its neighbours something else
+            pas[ladder + (k,)] = [0.9, 0.5, passing[k], 0.001]
+    dims = ("material", "rings", "layers", "impact_energy")
+    return xr.Dataset(
+        {"broken_fraction_mean": (dims, frac), "capture_radius_mean": (dims, rad),
+         "passing_fraction_mean": (dims + ("sieve",), pas)},
+        coords=dict(material=mats, rings=rings, layers=layers, impact_energy=BED_ENERGIES,
+                    sieve=BED_SIEVES))
+
+
+def _claims(ds):
+    return {row[0]: row for row in bed_analysis.paper_claims(ds)}
+
+
+def test_limestone_claim_reads_every_bed_that_did_not_break_completely():
+    fraction = {}
+    for bed, (cu, gr, li) in {(0, 1): (1.0, 1.0, 1.0), (2, 1): (0.37, 0.74, 0.95),
+                              (3, 1): (0.19, 0.41, 0.49), (3, 3): (0.08, 0.25, 0.31)}.items():
+        fraction.update({("copper_ore", *bed): cu, ("granulite", *bed): gr,
+                         ("limestone", *bed): li})
+    row = _claims(_bed(fraction))["more broken mass in limestone"]
+    assert row[3] == "followed" and "in 3 of 3 beds" in row[1] and "0r1l" not in row[1]
+    fraction[("granulite", 3, 3)] = 0.32  # granulite above limestone in one bed
+    row = _claims(_bed(fraction))["more broken mass in limestone"]
+    assert row[3] == "not followed" and "in 2 of 3 beds" in row[1]
+
+
+@pytest.mark.parametrize("five_layers, verdict", [(0.10, "followed"), (0.19, "not followed")])
+def test_multi_layer_claim_compares_each_copper_bed_with_the_monolayer(five_layers, verdict):
+    fraction = {("copper_ore", 3, 1): 0.19, ("copper_ore", 3, 3): 0.08,
+                ("copper_ore", 3, 5): five_layers}
+    row = _claims(_bed(fraction))["less broken mass in multi-layer copper ore beds"]
+    assert row[3] == verdict and "19 % as a monolayer" in row[1] and "8 % in 3 layers" in row[1]
+
+
+@pytest.mark.parametrize("radius, verdict", [([5.6, 5.6, 5.6, 10.0, 11.4], "followed"),
+                                             ([5.6, 10.0, 5.6, 10.0, 11.4], "not followed"),
+                                             ([5.6] * 5, "not followed")])
+def test_capture_radius_claim_is_non_decreasing_and_rising(radius, verdict):
+    row = _claims(_bed({}, radius=[r * 1e-3 for r in radius]))["capture radius growing with energy"]
+    assert row[3] == verdict and f"{radius[-1]:.3g} mm at 8.69 J" in row[1]
+
+
+@pytest.mark.parametrize("passing, verdict", [([0.007, 0.014, 0.014, 0.026, 0.038], "followed"),
+                                              ([0.007, 0.014, 0.012, 0.026, 0.038],
+                                               "not followed")])
+def test_finer_product_claim_reads_the_1_18_mm_sieve(passing, verdict):
+    row = _claims(_bed({}, radius=[1e-3] * 5, passing=passing))[
+        "finer product with energy (passing 1.18 mm)"]
+    assert row[3] == verdict and "0.7 % at 1.39 J" in row[1] and "3.8 % at 8.69 J" in row[1]
+
+
+def test_bed_claims_that_cannot_be_read_say_so():
+    rows = bed_analysis.paper_claims(_bed({("copper_ore", 1, 1): 0.5}))
+    assert [row[3] for row in rows] == ["not testable here"] * 4

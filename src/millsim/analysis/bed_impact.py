@@ -28,3 +28,78 @@ def summary(ds: xr.Dataset) -> xr.Dataset:
         if name == "broken_fraction":
             ds["replicates"] = n.assign_attrs(units="1", long_name="cases (seeds) per condition")
     return ds
+
+
+# Tavares et al. (2021), section 4.2 (Figs 20-23), states trends in words; these are the
+# conditions of config/paper.yaml's bed matrix in which each can be read.
+STANDARD_ENERGY = 3.05  # J, the energy of the material and bed comparisons
+LADDER = dict(material="copper_ore", rings=3, layers=1)  # the energy ladder's bed
+FINE_SIEVE = 1.18e-3  # m, the sieve of "finer product"
+MATERIALS = ("copper_ore", "granulite", "limestone")
+
+
+def _mean(ds, name, impact_energy=None, sieve=None, **at):
+    """The mean over seeds of ``name`` at a point; NaN where the aggregate does not have it."""
+    try:
+        value = ds[f"{name}_mean"].sel(**at)
+        for dim, x in (("impact_energy", impact_energy), ("sieve", sieve)):
+            if x is not None:  # floats from a config: matched to rounding
+                value = value.sel({dim: x}, method="nearest", tolerance=1e-9 * abs(x))
+        return float(value)
+    except KeyError:
+        return float("nan")
+
+
+def _rising(values):
+    """Non-decreasing and the last above the first (NaN: not readable)."""
+    return all(b >= a for a, b in zip(values, values[1:])) and values[-1] > values[0]
+
+
+def paper_claims(ds: xr.Dataset):
+    """The paper's trends, each read point by point from the aggregate's means over seeds:
+    [(claim, what is here, rule, "followed" | "not followed" | "not testable here")]."""
+    import math
+
+    rows = []
+    energy = dict(impact_energy=STANDARD_ENERGY)
+    beds = sorted({(int(r), int(n)) for r in ds["rings"].values for n in ds["layers"].values})
+    compared, followed = [], 0
+    for rings, layers in beds:
+        by = {m: _mean(ds, "broken_fraction", material=m, rings=rings, layers=layers, **energy)
+              for m in MATERIALS}
+        if any(math.isnan(v) for v in by.values()) or min(by.values()) >= 1.0:
+            continue  # not run for every material, or every bed broke completely
+        compared.append(f"{rings}r{layers}l")
+        followed += by["limestone"] >= max(by.values())
+    rows.append(("more broken mass in limestone",
+                 f"limestone largest in {followed} of {len(compared)} beds at {STANDARD_ENERGY} J "
+                 f"({', '.join(compared) or 'none'}; beds broken completely left out)",
+                 "limestone's mean broken fraction the largest of the three in every bed",
+                 "not testable here" if not compared else
+                 "followed" if followed == len(compared) else "not followed"))
+    mono = _mean(ds, "broken_fraction", material="copper_ore", rings=3, layers=1, **energy)
+    multi = {n: _mean(ds, "broken_fraction", material="copper_ore", rings=3, layers=n, **energy)
+             for n in (3, 5)}
+    multi = {n: v for n, v in multi.items() if not math.isnan(v)}
+    rows.append(("less broken mass in multi-layer copper ore beds",
+                 f"3-ring copper ore: {100 * mono:.3g} % as a monolayer"
+                 + "".join(f", {100 * v:.3g} % in {n} layers" for n, v in multi.items()),
+                 "every multi-layer bed's broken fraction below the monolayer's",
+                 "not testable here" if math.isnan(mono) or not multi else
+                 "followed" if all(v < mono for v in multi.values()) else "not followed"))
+    energies = sorted(float(e) for e in ds["impact_energy"].values)
+    radius = [_mean(ds, "capture_radius", impact_energy=e, **LADDER) for e in energies]
+    passing = [_mean(ds, "passing_fraction", impact_energy=e, sieve=FINE_SIEVE, **LADDER)
+               for e in energies]
+    ladder = [(e, r, p) for e, r, p in zip(energies, radius, passing) if not math.isnan(r)]
+    for claim, column, unit, scale in (("capture radius growing with energy", 1, "mm", 1e3),
+                                       ("finer product with energy (passing 1.18 mm)", 2, "%",
+                                        100.0)):
+        values = [row[column] for row in ladder]
+        rows.append((claim, "3-ring copper ore monolayer: " + (", ".join(
+            f"{scale * v:.3g} {unit} at {e:g} J" for e, v in zip([r[0] for r in ladder], values))
+            or "not run"),
+            "non-decreasing with energy, the highest energy's above the lowest's",
+            "not testable here" if len(values) < 2 or any(math.isnan(v) for v in values) else
+            "followed" if _rising(values) else "not followed"))
+    return rows

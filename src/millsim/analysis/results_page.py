@@ -95,8 +95,13 @@ def _bed_impact(ds):
     header = ["material", "rings", "layers", f"impact energy [{_units(ds, 'impact_energy')}]",
               f"broken mass [{_units(ds, 'broken_mass_mean')}]",
               f"capture radius [{_units(ds, 'capture_radius_mean')}]", "seeds"]
+    from .bed_impact import paper_claims
+
+    claims = [list(row) for row in paper_claims(ds)]
     return [("Broken mass and capture radius per material x bed (mean +- sd over seeds)",
-             _table(header, rows))]
+             _table(header, rows)),
+            ("Against the trends Tavares et al. (2021) state (section 4.2)",
+             _table(["the paper's statement", "here", "rule", "verdict"], claims))]
 
 
 VERDICT_KEYS = {"pass_rule_probability": "probability", "pass_rule_repeated": "repeated",
