@@ -184,6 +184,10 @@ def test_figure_links_resolve_and_the_undrawn_one_is_named(study):
     assert len(links) == len(names) - 1
     assert all((out.parent / link).is_file() for link in links)
     assert "Not drawn" in text and names[-1] in text.split("Not drawn")[1]
+    # the folder named as the links name it, relative to the page (no path of this machine)
+    folder = re.search(r"Not drawn \(absent from ([^)]+)\)", text)[1]
+    assert (out.parent / folder).resolve() == (out.parent / links[0]).parent.resolve()
+    assert not folder.startswith("/")
 
 
 def test_ballmill_table_is_the_rate_and_power_computed_here(tmp_path):

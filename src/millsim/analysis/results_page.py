@@ -225,7 +225,8 @@ def _figures(study, figures, out, catalogue):
         lines.append(f"*{name}*: {catalogue[name][1]}")
         lines.append("")
     if absent:
-        lines.append(f"Not drawn (absent from {Path(figures).as_posix()}): {', '.join(absent)}.")
+        folder = Path(os.path.relpath(figures, Path(out).parent)).as_posix()  # as the links
+        lines.append(f"Not drawn (absent from {folder}): {', '.join(absent)}.")
     return lines
 
 
