@@ -402,3 +402,24 @@ def test_finer_product_claim_reads_the_1_18_mm_sieve(passing, verdict):
 def test_bed_claims_that_cannot_be_read_say_so():
     rows = bed_analysis.paper_claims(_bed({("copper_ore", 1, 1): 0.5}))
     assert [row[3] for row in rows] == ["not testable here"] * 4
+
+
+def test_bed_claims_read_rounding_and_resettled_rings_as_no_change():
+    """Seen on the paper matrix (2026-12-01): fractions summed from fragments are 1 +- 3e-15 for a
+    bed broken completely, and the same ring's capture radius differs by ~1 um between energies
+    (the bed settles again each case)."""
+    fraction = {(m, 1, 1): v for m, v in zip(["copper_ore", "granulite", "limestone"],
+                                             [1 - 8e-16, 1 + 1.6e-15, 1 - 2.6e-15])}
+    fraction.update({("copper_ore", 3, 1): 0.19, ("granulite", 3, 1): 0.39,
+                     ("limestone", 3, 1): 0.49})
+    row = _claims(_bed(fraction))["more broken mass in limestone"]
+    assert row[3] == "followed" and "in 1 of 1 beds" in row[1] and "1r1l" not in row[1]
+    radius = [5.6103e-3, 5.6094e-3, 5.6094e-3, 10.03e-3, 11.43e-3]
+    assert _claims(_bed({}, radius=radius))["capture radius growing with energy"][3] == "followed"
+    # a fall of half a ring is a fall
+    radius[2] = 2.8e-3
+    assert _claims(_bed({}, radius=radius))["capture radius growing with energy"][3] == \
+        "not followed"
+    # all in the same ring: no growth
+    assert _claims(_bed({}, radius=[5.61e-3 + 1e-6 * k for k in range(5)]))[
+        "capture radius growing with energy"][3] == "not followed"

@@ -36,6 +36,10 @@ STANDARD_ENERGY = 3.05  # J, the energy of the material and bed comparisons
 LADDER = dict(material="copper_ore", rings=3, layers=1)  # the energy ladder's bed
 FINE_SIEVE = 1.18e-3  # m, the sieve of "finer product"
 MATERIALS = ("copper_ore", "granulite", "limestone")
+ROUNDING = 1e-9  # fractions summed from fragment masses: 1 - 3e-16 is a bed broken completely
+# the capture radius moves in steps of a ring (5.5 mm); the same ring after another settling
+# differs by micrometres, which is no change of radius
+SAME_RING = 1e-4  # m
 
 
 def _mean(ds, name, impact_energy=None, sieve=None, **at):
@@ -50,9 +54,11 @@ def _mean(ds, name, impact_energy=None, sieve=None, **at):
         return float("nan")
 
 
-def _rising(values):
-    """Non-decreasing and the last above the first (NaN: not readable)."""
-    return all(b >= a for a, b in zip(values, values[1:])) and values[-1] > values[0]
+def _rising(values, tolerance=0.0):
+    """Non-decreasing (a fall within ``tolerance`` is no fall) and the last above the first by
+    more than ``tolerance``."""
+    return all(b >= a - tolerance for a, b in zip(values, values[1:])) and \
+        values[-1] > values[0] + tolerance
 
 
 def paper_claims(ds: xr.Dataset):
@@ -67,10 +73,10 @@ def paper_claims(ds: xr.Dataset):
     for rings, layers in beds:
         by = {m: _mean(ds, "broken_fraction", material=m, rings=rings, layers=layers, **energy)
               for m in MATERIALS}
-        if any(math.isnan(v) for v in by.values()) or min(by.values()) >= 1.0:
+        if any(math.isnan(v) for v in by.values()) or min(by.values()) >= 1.0 - ROUNDING:
             continue  # not run for every material, or every bed broke completely
         compared.append(f"{rings}r{layers}l")
-        followed += by["limestone"] >= max(by.values())
+        followed += by["limestone"] >= max(by.values()) - ROUNDING
     rows.append(("more broken mass in limestone",
                  f"limestone largest in {followed} of {len(compared)} beds at {STANDARD_ENERGY} J "
                  f"({', '.join(compared) or 'none'}; beds broken completely left out)",
@@ -92,14 +98,15 @@ def paper_claims(ds: xr.Dataset):
     passing = [_mean(ds, "passing_fraction", impact_energy=e, sieve=FINE_SIEVE, **LADDER)
                for e in energies]
     ladder = [(e, r, p) for e, r, p in zip(energies, radius, passing) if not math.isnan(r)]
-    for claim, column, unit, scale in (("capture radius growing with energy", 1, "mm", 1e3),
-                                       ("finer product with energy (passing 1.18 mm)", 2, "%",
-                                        100.0)):
+    for claim, column, unit, scale, tolerance in (
+            ("capture radius growing with energy", 1, "mm", 1e3, SAME_RING),
+            ("finer product with energy (passing 1.18 mm)", 2, "%", 100.0, 0.0)):
         values = [row[column] for row in ladder]
         rows.append((claim, "3-ring copper ore monolayer: " + (", ".join(
             f"{scale * v:.3g} {unit} at {e:g} J" for e, v in zip([r[0] for r in ladder], values))
             or "not run"),
-            "non-decreasing with energy, the highest energy's above the lowest's",
+            "non-decreasing with energy, the highest energy's above the lowest's"
+            + (f" (within {scale * tolerance:g} {unit}: the same ring)" if tolerance else ""),
             "not testable here" if len(values) < 2 or any(math.isnan(v) for v in values) else
-            "followed" if _rising(values) else "not followed"))
+            "followed" if _rising(values, tolerance) else "not followed"))
     return rows

@@ -17,6 +17,7 @@ import matplotlib
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
+from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
 from .style import few_points_note, label, points
 
@@ -47,6 +48,22 @@ def _beds(ds):
                    ds.sel(material=mat, rings=rings, layers=layers))
 
 
+def _spaced(values, gap):
+    """The values in ascending order, each kept only if at least ``gap`` above the last kept."""
+    kept = []
+    for v in sorted(float(v) for v in values):
+        if not kept or v - kept[-1] >= gap:
+            kept.append(v)
+    return kept
+
+
+def _plain_log_ticks(axis):
+    """Log-axis ticks at 1, 2, 5 x 10^k written as plain numbers ("2", not "2 x 10^0")."""
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FormatStrFormatter("%g"))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def _reference_energy(ds):
     e = ds["impact_energy"].values
     return e[int(np.argmin(np.abs(e - REFERENCE_ENERGY)))]
@@ -69,7 +86,11 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
     ax = axes[0]
     e = ds["impact_energy"].values
     n = 0
-    for k, (_, _, _, lab, sub) in enumerate(_beds(ds)):
+    beds = list(_beds(ds))
+    if bars:  # the beds run at one energy are the bars; here only those run at several
+        ladders = [bed for bed in beds if np.isfinite(bed[4]["broken_fraction_mean"]).sum() > 1]
+        beds = ladders or beds
+    for k, (_, _, _, lab, sub) in enumerate(beds):
         c = f"C{k % 10}"
         mean = 100 * sub["broken_fraction_mean"].values
         std = 100 * sub["broken_fraction_std"].values
@@ -83,6 +104,7 @@ def broken_mass(ds: xr.Dataset, out: str) -> None:
                label=f"{e_ref:g} J (Fig. 22 of Tavares et al. 2021)")
     ax.set(xscale="log", xlabel=ENERGY, ylabel="broken mass, passing 4.75 mm [%]",
            ylim=(0, 105), title=f"Broken mass against impact energy ({_seeds_note(ds)})")
+    _plain_log_ticks(ax.xaxis)
     ax.legend(loc="upper left")
     if bars:
         b = axes[1]
@@ -135,10 +157,16 @@ def capture_radius(ds: xr.Dataset, out: str) -> None:
     ax = fig.subplots()
     beds = list(_beds(ds))
     sites = {}
-    for k, (_, rings, layers, lab, sub) in enumerate(beds):
-        c = f"C{k % 10}"
-        # beds side by side around each energy (log axis: a constant factor)
-        shift = 1.07 ** (k - (len(beds) - 1) / 2)
+    # colour by bed configuration, marker by material: 21 beds of the paper's matrix stay apart
+    configs = sorted({(int(r), int(n)) for _, r, n, _, _ in beds}, key=lambda c: (c[1], c[0]))
+    materials = list(dict.fromkeys(str(m) for m, *_ in beds))
+    for k, (material, rings, layers, lab, sub) in enumerate(beds):
+        c = f"C{configs.index((int(rings), int(layers))) % 10}"
+        marker = "osD^v<>"[materials.index(str(material)) % 7]
+        # beds side by side around each energy (log axis: a constant factor), within x/÷ 1.15
+        # of it whatever their number, so that no bed seems to have run at another energy
+        middle = max((len(beds) - 1) / 2, 1.0)
+        shift = 1.15 ** ((k - (len(beds) - 1) / 2) / middle)
         per_seed = 1e3 * sub["capture_radius"].values.reshape(len(sub["impact_energy"]), -1)
         for e, values in zip(sub["impact_energy"].values, per_seed):
             values = np.sort(values[np.isfinite(values)])
@@ -148,8 +176,8 @@ def capture_radius(ds: xr.Dataset, out: str) -> None:
             radius = [g.mean() for g in groups if g.size]
             count = np.array([g.size for g in groups if g.size])
             ax.scatter(np.full(len(radius), e * shift), radius, s=36 * count, color=c,
-                       edgecolor="white", linewidth=0.5, zorder=3)
-        ax.scatter([], [], s=36, color=c, label=lab)
+                       marker=marker, edgecolor="white", linewidth=0.5, zorder=3)
+        ax.scatter([], [], s=36, color=c, marker=marker, label=lab)
         sites.update(_site_radii(rings, layers, ds))
     top = max([r for r in sites] + [float(np.nanmax(1e3 * ds["capture_radius"].values))])
     for r in sites:
@@ -159,14 +187,16 @@ def capture_radius(ds: xr.Dataset, out: str) -> None:
            title="Capture radius: largest distance of a broken bed particle\nfrom the ball axis "
                  "(0: only the central particle broke)")
     ax.grid(False)  # the site radii are the horizontal guides, the energies the ticks
-    energies = ds["impact_energy"].values
-    ax.set_xticks(energies, [f"{e:g}" for e in energies])
+    energies = _spaced(np.log(ds["impact_energy"].values), 0.04)
+    ax.set_xticks(np.exp(energies), [f"{e:g}" for e in np.exp(energies)])
     ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
     if sites:
-        # the values it can take are the ticks: in mm on the left, by ring on the right
-        ax.set_yticks(list(sites), [f"{r:.3g}" for r in sites])
+        # the values it can take are the ticks: in mm on the left, by ring on the right; labels
+        # closer than 4 % of the axis would overprint, so only the first of such a group is named
+        named = _spaced(list(sites), 0.06 * 1.14 * top)
+        ax.set_yticks(named, [f"{r:.3g}" for r in named])
         names = ax.secondary_yaxis("right")
-        names.set_yticks(list(sites), list(sites.values()), fontsize=7, color="0.35")
+        names.set_yticks(named, [sites[r] for r in named], fontsize=7, color="0.35")
         names.tick_params(length=0)
     seeds = int(ds.sizes.get("seed", 1))
     fig.legend(loc="outside lower center", ncols=2,
