@@ -17,28 +17,33 @@ import os
 from pathlib import Path
 
 
+def is_snakemake(argv):
+    """Whether a command line (a list of str) runs Snakemake: the ``snakemake`` script itself, a
+    Python running it, or ``python -m snakemake``; a shell that merely names it in its command
+    string (``sh -c "snakemake ..."``) does not (its child does, and is found on its own)."""
+    names = [Path(a).name for a in argv[:3]]
+    if not names:
+        return False
+    if names[0] == "snakemake":
+        return True
+    return names[0].startswith("python") and len(names) > 1 and (
+        names[1] == "snakemake" or names[1:3] == ["-m", "snakemake"])
+
+
 def _snakemake_processes_in(directory, own):
-    """Process ids of the Snakemake processes (other than ``own`` and its ancestors) whose
-    working directory is ``directory`` (Linux /proc; none where it cannot be read)."""
-    skip = set()
-    pid = own
-    while pid > 1:  # our ancestors: the shell or make that started us is no other run
-        skip.add(pid)
-        try:
-            stat = Path(f"/proc/{pid}/stat").read_text()
-        except OSError:
-            break
-        pid = int(stat.rsplit(")", 1)[1].split()[1])
+    """Process ids of the Snakemake processes other than ``own`` whose working directory is
+    ``directory`` (Linux /proc; none where it cannot be read). A Snakemake that started ``own``
+    (one that runs jobs by reading the Snakefile again) counts: its lock is live."""
     found = []
     for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit() or int(entry.name) in skip:
+        if not entry.name.isdigit() or int(entry.name) == own:
             continue
         try:
-            command = (entry / "cmdline").read_bytes().split(b"\0")
+            argv = (entry / "cmdline").read_bytes().decode(errors="replace").split("\0")
             here = (entry / "cwd").resolve()
         except OSError:
             continue
-        if here == directory and any(b"snakemake" in part for part in command[:3]):
+        if here == directory and is_snakemake(argv):
             found.append(int(entry.name))
     return found
 
