@@ -99,42 +99,48 @@ def _frag_model(ds, i):
 
 def t10(ds, out):
     """Fig. 16 of Tavares et al. 2021: t10 of the product vs input specific energy, simulation vs
-    eq 7 on a dense grid. Colour: material/mode/size; marker: when particles break (breakage_at)."""
-    fig = _figure((7.5, 5.0))
-    ax = fig.subplots()
-    colours = matplotlib.colormaps["tab10"]
+    eq 7 on a dense grid, one panel per material/mode/size; marker: when particles break
+    (breakage_at: filled at the first reach, open at the end of loading)."""
     markers = {"first_reach": "o", "end_of_loading": "s"}
-    groups, n = [], 0
+    groups = list(dict.fromkeys(str(name).rpartition("/")[0] for name in ds["frag_case"].values))
+    cols = min(len(groups), 2)
+    rows = -(-len(groups) // cols)
+    fig = _figure((5.4 * cols + 0.6, 3.9 * rows + 0.6))
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False).ravel())
     energies = ds["t10_specific_energy"].values
-    lo, hi = np.nanmin(energies) / 1.6, np.nanmax(energies) * 1.6
-    for i, name in enumerate(ds["frag_case"].values):
-        group, _, at = str(name).rpartition("/")
-        first = group not in groups
-        if first:
-            groups.append(group)
-        c = colours(groups.index(group))
-        sub = ds.isel(frag_case=i)
-        if first:  # the model does not depend on breakage_at
-            mat, d, share = _frag_model(ds, i)
-            E = dense(lo, hi, 200, log=True)
-            for median, style, text in (("broken", "-", f"eq 7, {SYMBOL['E50b']} of the broken"),
-                                        ("all", ":", "eq 7, median of all")):
-                ax.plot(E, [t10_model(mat, d, e, share, median) for e in E], style, color=c,
-                        label=f"{group}: {text}")
-            ax.axhline(float(np.nanmean(sub["t10_primary"])), color=c, ls="--", lw=0.9,
-                       label=f"{group}: eq 9 (breakage at the fracture energy)")
-        t = sub["t10"].values
-        ok = np.isfinite(t)
-        n = max(n, int(ok.sum()))
-        ax.errorbar(sub["t10_specific_energy"].values[ok], t[ok],
-                    yerr=[t[ok] - sub["t10_lo"].values[ok], sub["t10_hi"].values[ok] - t[ok]],
-                    fmt=markers.get(at, "^"), color=c, mfc="white" if at == "end_of_loading" else c,
-                    ls="none", label=f"{group}, {at.replace('_', ' ')} (simulation, 95 % interval)")
-    few_points_note(ax, n, "energy")
-    ax.set(xscale="log", xlabel=ENERGY, ylabel=T10, ylim=(0, None),
-           title=f"{SYMBOL['t10']} of the broken particles' product vs energy "
+    n = 0
+    for ax, group in zip(axes, groups):
+        cases = [i for i, name in enumerate(ds["frag_case"].values)
+                 if str(name).rpartition("/")[0] == group]
+        mat, d, share = _frag_model(ds, cases[0])  # the model does not depend on breakage_at
+        mine = energies[cases]
+        E = dense(np.nanmin(mine) / 1.6, np.nanmax(mine) * 1.6, 200, log=True)
+        for median, style, text in (("broken", "-", f"eq 7, {SYMBOL['E50b']} of the broken"),
+                                    ("all", ":", "eq 7, median of all")):
+            ax.plot(E, [t10_model(mat, d, e, share, median) for e in E], style, color="k",
+                    lw=1, label=text)
+        ax.axhline(float(np.nanmean(ds["t10_primary"].isel(frag_case=cases[0]))), color="0.5",
+                   ls="--", lw=0.9, label="eq 9 (breakage at the fracture energy)")
+        for i in cases:
+            at = str(ds["frag_case"].values[i]).rpartition("/")[2]
+            sub = ds.isel(frag_case=i)
+            t = sub["t10"].values
+            ok = np.isfinite(t)
+            n = max(n, int(ok.sum()))
+            ax.errorbar(sub["t10_specific_energy"].values[ok], t[ok],
+                        yerr=[t[ok] - sub["t10_lo"].values[ok],
+                              sub["t10_hi"].values[ok] - t[ok]],
+                        fmt=markers.get(at, "^"), color="C0" if at == "first_reach" else "C3",
+                        mfc="white" if at == "end_of_loading" else None, ls="none",
+                        label=f"simulation, {at.replace('_', ' ')} (95 % interval)")
+        few_points_note(ax, n, "energy")
+        ax.set(xscale="log", xlabel=ENERGY, ylabel=T10, ylim=(0, None),
+               title=group.replace("_", " "))
+        ax.legend(loc="upper left", fontsize=7)
+    for ax in axes[len(groups):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{SYMBOL['t10']} of the broken particles' product vs energy "
                  "(Fig. 16 of Tavares et al. 2021)")
-    ax.legend(loc="upper left")
     fig.savefig(out)
 
 
