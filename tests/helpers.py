@@ -1,5 +1,6 @@
 """Small builders shared by the tests."""
 
+import json
 import math
 from types import SimpleNamespace
 
@@ -79,3 +80,22 @@ class PourCharge:
         first = len(p.radius)
         p.x, p.radius = np.vstack([p.x, x]), np.append(p.radius, r)
         return np.arange(first, len(p.radius))
+
+
+def calibration_files(tmp_path, source, friction_interval, eta_interval, speeds=(1000.0,),
+                      residual_2000=-1.0):
+    """The stage files of a stirred-mill calibration, written by hand: friction 0.3 from
+    ``speeds``, one fluid A (eta_exp 0.05, eta_sim 0.04), a two-point prediction with residuals
+    0.2 W at 1000 rpm and ``residual_2000`` W at 2000 rpm (references 10 and 20 W)."""
+    friction = tmp_path / "friction.json"
+    friction.write_text(json.dumps(dict(friction=0.3, friction_refined=0.31, speeds=list(speeds),
+                                        friction_interval=friction_interval)))
+    viscosity = tmp_path / "viscosity.json"
+    viscosity.write_text(json.dumps(dict(rpm=2000.0, fluids={"A": dict(
+        eta_sim=0.04, eta_sim_refined=0.045, eta_exp=0.05, eta_sim_interval=eta_interval)})))
+    prediction = tmp_path / "prediction.csv"
+    prediction.write_text(f"rpm,residual,reference\n1000,0.2,10\n2000,{residual_2000},20\n")
+    reference = tmp_path / "reference.csv"
+    reference.write_text("rpm,fluid,eta_exp,net_power,source\n"
+                         f"1000,dry,0,10,{source}\n2000,A,0.05,20,{source}\n")
+    return friction, viscosity, prediction, reference

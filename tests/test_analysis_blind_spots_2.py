@@ -24,6 +24,8 @@ from millsim.analysis import stirred_mill as sm
 from millsim.analysis import tavares_verification as tv
 from millsim.io import write_case, write_netcdf
 
+from helpers import calibration_files
+
 # ---- stirred_mill: the 95 % interval, the refined minimum, the stage tables ----------------------
 
 STEP = 1.0 / 4000  # interval's default grid: 4001 points over [0, 1]
@@ -241,20 +243,9 @@ def test_report_numbers_of_a_million_and_more_are_in_exponent_form(x, text):
 # ---- report: the calibration page, the twin's p-value, the repeated-impact headline ------------
 
 def _calibration_files(tmp_path, source, friction_interval, eta_interval):
-    """The stage files of a stirred-mill calibration, written by hand: friction 0.3, one fluid A
-    (eta_exp 0.05, eta_sim 0.04), a two-point prediction with relative residuals 2 % and -5 %."""
-    friction = tmp_path / "friction.json"
-    friction.write_text(json.dumps(dict(friction=0.3, friction_refined=0.31, speeds=[1000.0],
-                                        friction_interval=friction_interval)))
-    viscosity = tmp_path / "viscosity.json"
-    viscosity.write_text(json.dumps(dict(rpm=2000.0, fluids={"A": dict(
-        eta_sim=0.04, eta_sim_refined=0.045, eta_exp=0.05, eta_sim_interval=eta_interval)})))
-    prediction = tmp_path / "prediction.csv"
-    prediction.write_text("rpm,residual,reference\n1000,0.2,10\n2000,-1.0,20\n")
-    reference = tmp_path / "reference.csv"
-    reference.write_text("rpm,fluid,eta_exp,net_power,source\n"
-                         f"1000,dry,0,10,{source}\n2000,A,0.05,20,{source}\n")
-    return friction, viscosity, prediction, reference
+    """Friction 0.3, one fluid A (eta_exp 0.05, eta_sim 0.04), a two-point prediction with
+    relative residuals 2 % and -5 % (tests/helpers.py)."""
+    return calibration_files(tmp_path, source, friction_interval, eta_interval)
 
 
 def _iv(lo, hi, lo_open=False, hi_open=False, scale=1.0):
@@ -334,12 +325,13 @@ def test_stirred_page_table_and_figures_by_hand(tmp_path):
     catalogue = {"stirred_power": ("aggregate:stirred_mill", "power"),
                  "ballmill_rate": ("aggregate:ballmill", "rate"),
                  "stirred_{rpm}": ("aggregate:stirred_mill", "one per speed")}
-    text = rp.page("stirred_mill", ds, "agg.nc", figures=tmp_path, out="page.md",
-                             catalogue=catalogue)
+    text = rp.page("stirred_mill", ds, "agg.nc", figures=tmp_path / "plots",
+                   out=tmp_path / "pages" / "page.md", catalogue=catalogue)
     lines = text.splitlines()
     at = lines.index("| eta [Pa s] \\ rpm | 2000 | 3000 |")
     assert lines[at + 1:at + 3] == ["|---|---|---|", "| 0.1 | 1.235 +- 0.01235 | 2 +- 0.1 |"]
-    assert lines[-1] == f"Not drawn (absent from {tmp_path.as_posix()}): stirred_power."
+    # the folder as the page's links name it: relative to the page
+    assert lines[-1] == "Not drawn (absent from ../plots): stirred_power."
     assert text.endswith(".\n")
 
 

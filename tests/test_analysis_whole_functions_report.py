@@ -19,6 +19,8 @@ from docutils.core import publish_doctree
 from millsim.analysis import report
 from millsim.io import write_netcdf
 
+from helpers import calibration_files
+
 NAN = math.nan
 
 
@@ -156,18 +158,9 @@ def test_stirred_share_of_a_typology_not_recorded_is_a_dash(tmp_path):
 # ---- report.calibration: notes, table and verdicts over every kind of interval -----------------
 
 def _calibration(tmp_path, source, friction_iv, eta_iv):
-    friction = tmp_path / "friction.json"
-    friction.write_text(json.dumps(dict(friction=0.3, friction_refined=0.31,
-                                        speeds=[1000.0, 2000.0], friction_interval=friction_iv)))
-    viscosity = tmp_path / "viscosity.json"
-    viscosity.write_text(json.dumps(dict(rpm=2000.0, fluids={"A": dict(
-        eta_sim=0.04, eta_sim_refined=0.045, eta_exp=0.05, eta_sim_interval=eta_iv)})))
-    prediction = tmp_path / "prediction.csv"
-    prediction.write_text("rpm,residual,reference\n1000,0.2,10\n2000,-1.2,20\n")
-    reference = tmp_path / "reference.csv"
-    reference.write_text("rpm,fluid,eta_exp,net_power,source\n"
-                         f"1000,dry,0,10,{source}\n2000,A,0.05,20,{source}\n")
-    return report.calibration(friction, viscosity, prediction, reference)
+    files = calibration_files(tmp_path, source, friction_iv, eta_iv, speeds=(1000.0, 2000.0),
+                              residual_2000=-1.2)
+    return report.calibration(*files)
 
 
 def _iv(lo, hi, lo_open=False, hi_open=False, scale=1.0):
