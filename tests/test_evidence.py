@@ -47,7 +47,22 @@ def test_evidence_lists_the_stale_page_with_its_section_and_counts_the_current(t
     assert any(line.startswith("STALE") and line.endswith("old.md") for line in out)
     assert f"line 6: engine {STALE_HASH}  (Quick study)" in "\n".join(out)
     assert not any(line.endswith("fresh.md") for line in out)
+    assert any(line.startswith("NO ENGINE HASH") and line.endswith("bare.md") for line in out)
     assert json.loads((tmp_path / "e.json").read_text())["current"] == 1
+
+
+def test_a_current_page_is_listed_only_for_the_numbers_it_keeps_for_comparison(tmp_path, capsys):
+    today = millsim.provenance_hash()
+    folder = tmp_path / "results"
+    folder.mkdir()
+    (folder / "kept.md").write_text(f"engine {today}: 1.5 W; old engine {STALE_HASH}: 1.7 W\n")
+    (folder / "plain.md").write_text(f"engine {today}: 1.5 W\n")
+    assert main(["evidence", "--docs", str(folder)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("millsim evidence: 2 of 2 results pages current")
+    assert [line.split()[-1].rsplit("/", 1)[-1] for line in out[1:] if "results/" in line] == \
+        ["kept.md"]
+    assert any(f"engine {STALE_HASH}" in line and "kept for comparison" in line for line in out)
 
 
 def test_evidence_of_a_missing_folder_is_refused_in_one_line(tmp_path, capsys):

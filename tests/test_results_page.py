@@ -414,12 +414,22 @@ def test_bed_claims_read_rounding_and_resettled_rings_as_no_change():
                      ("limestone", 3, 1): 0.49})
     row = _claims(_bed(fraction))["more broken mass in limestone"]
     assert row[3] == "followed" and "in 1 of 1 beds" in row[1] and "1r1l" not in row[1]
+    # rounding is 1e-9: a bed at exactly 1 - 1e-9 in every material is one broken completely
+    edge = {(m, 1, 1): 1.0 - 1e-9 for m in ("copper_ore", "granulite", "limestone")}
+    assert "1r1l" not in _claims(_bed({**fraction, **edge}))["more broken mass in limestone"][1]
     radius = [5.6103e-3, 5.6094e-3, 5.6094e-3, 10.03e-3, 11.43e-3]
-    assert _claims(_bed({}, radius=radius))["capture radius growing with energy"][3] == "followed"
+    row = _claims(_bed({}, radius=radius))["capture radius growing with energy"]
+    assert row[3] == "followed" and row[2].endswith("(within 0.1 mm: the same ring)")
     # a fall of half a ring is a fall
     radius[2] = 2.8e-3
     assert _claims(_bed({}, radius=radius))["capture radius growing with energy"][3] == \
         "not followed"
+    # the same ring is a change below 0.1 mm: 0.12 mm down is a fall
+    radius = [5.6103e-3, 5.6103e-3 - 0.12e-3, 5.6103e-3, 10.03e-3, 11.43e-3]
+    assert _claims(_bed({}, radius=radius))["capture radius growing with energy"][3] == \
+        "not followed"
+    radius[1] = 5.6103e-3 - 0.08e-3
+    assert _claims(_bed({}, radius=radius))["capture radius growing with energy"][3] == "followed"
     # all in the same ring: no growth
     assert _claims(_bed({}, radius=[5.61e-3 + 1e-6 * k for k in range(5)]))[
         "capture radius growing with energy"][3] == "not followed"
