@@ -34,7 +34,7 @@ def _configs(ds):
             if bool(sel.notnull().any()):
                 n = 1 + 3 * int(rings) * (int(rings) + 1)
                 ring = f"{int(rings)} ring{'s' if int(rings) != 1 else ''}"
-                lab = (f"{n} particles ({ring})" if int(layers) == 1
+                lab = (f"{n} particle{'s' if n != 1 else ''} ({ring})" if int(layers) == 1
                        else f"{int(layers)} layers ({ring})")
                 out.append((rings, layers, lab))
     return sorted(out, key=lambda c: (c[1], c[0]))
