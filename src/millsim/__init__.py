@@ -3,7 +3,7 @@
 import hashlib
 from functools import lru_cache
 from importlib import metadata
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 try:
     __version__ = metadata.version("millsim")
@@ -26,6 +26,29 @@ LAYERS = (
 PHYSICS_SOURCES = tuple(part for _, parts in LAYERS[:-1] for part in parts)
 
 
+def physics_order(paths, parts=PHYSICS_SOURCES):
+    """Of ``paths`` (posix, relative to the package), the physics sources ``parts`` in the order
+    the engine hash reads them: a folder's ``.py`` files sorted, a module as itself. Shared with
+    millsim.analysis.physics_files, which hashes a past commit's files the same way."""
+    paths = set(paths)
+    order = []
+    for part in parts:
+        inside = sorted((q for q in paths if q.startswith(f"{part}/") and q.endswith(".py")),
+                        key=PurePosixPath)
+        single = part if part.endswith(".py") else f"{part}.py"
+        order += inside if inside else ([single] if single in paths else [])
+    return order
+
+
+def source_digest(contents):
+    """12 hex digits over {relative path: bytes}, in the given order."""
+    digest = hashlib.sha256()
+    for path, data in contents.items():
+        digest.update(path.encode())
+        digest.update(data)
+    return digest.hexdigest()[:12]
+
+
 @lru_cache(maxsize=1)
 def provenance_hash() -> str:
     """Short hash of the source files that decide simulation results.
@@ -34,13 +57,6 @@ def provenance_hash() -> str:
     (Snakemake's own code trigger only sees the rule's script, not imported modules). numba's
     kernel cache is keyed by it too.
     """
-    digest = hashlib.sha256()
     root = Path(__file__).parent
-    files = []
-    for part in PHYSICS_SOURCES:
-        path = root / part
-        files += sorted(path.rglob("*.py")) if path.is_dir() else [path.with_suffix(".py")]
-    for path in files:
-        digest.update(path.relative_to(root).as_posix().encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:12]
+    files = [q.relative_to(root).as_posix() for q in root.rglob("*.py")]
+    return source_digest({q: (root / q).read_bytes() for q in physics_order(files)})

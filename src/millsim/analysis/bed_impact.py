@@ -6,6 +6,8 @@ seed (a sparse grid: missing combinations are NaN); :func:`summary` (SCENE_SUMMA
 figures drawn from that aggregate (``results/aggregate/bed_breakage.nc``) are millsim.plots.bed_impact.
 """
 
+import math
+
 import xarray as xr
 
 STATS = ("broken_fraction", "broken_mass", "capture_radius", "touched_radius", "broken_particles",
@@ -64,8 +66,6 @@ def _rising(values, tolerance=0.0):
 def paper_claims(ds: xr.Dataset):
     """The paper's trends, each read point by point from the aggregate's means over seeds:
     [(claim, what is here, rule, "followed" | "not followed" | "not testable here")]."""
-    import math
-
     rows = []
     energy = dict(impact_energy=STANDARD_ENERGY)
     beds = sorted({(int(r), int(n)) for r in ds["rings"].values for n in ds["layers"].values})

@@ -34,23 +34,10 @@ def physics_paths(root=PACKAGE):
     """Every physics source below ``root`` in the order ``millsim.provenance_hash()`` reads them:
     paths relative to ``root`` (posix)."""
     root = Path(root)
-    paths = []
-    for part in millsim.PHYSICS_SOURCES:
-        path = root / part
-        found = sorted(path.rglob("*.py")) if path.is_dir() else [path.with_suffix(".py")]
-        paths += [p.relative_to(root).as_posix() for p in found if p.is_file()]
-    return paths
+    return millsim.physics_order(q.relative_to(root).as_posix() for q in root.rglob("*.py"))
 
 
-def tree_hash(contents):
-    """``millsim.provenance_hash()`` of a tree given as {relative path: bytes}, paths in the order
-    of :func:`physics_paths` (the same digest, so a commit's blobs can be hashed without a
-    checkout)."""
-    digest = hashlib.sha256()
-    for path, data in contents.items():
-        digest.update(path.encode())
-        digest.update(data)
-    return digest.hexdigest()[:12]
+tree_hash = millsim.source_digest  # the engine hash of {relative path: bytes}
 
 
 def _module_file(module, root):
@@ -152,7 +139,7 @@ class History:
         ``millsim.provenance_hash()`` does."""
         files = self.tree(commit)
         parts = _parts(self.blob(files["__init__.py"])) if "__init__.py" in files else None
-        order = _physics_order(files, parts)
+        order = millsim.physics_order(files, parts or millsim.PHYSICS_SOURCES)
         return tree_hash({path: self.blob(files[path]) for path in order})
 
     def commits(self):
@@ -207,18 +194,6 @@ def _parts(init):
     if "LAYERS" in values:
         return tuple(part for _, parts in values["LAYERS"][:-1] for part in parts)
     return None
-
-
-def _physics_order(files, parts=None):
-    """The paths of ``files`` (relative to the package) that are the physics sources ``parts``
-    (default: today's), in the order ``provenance_hash()`` reads them."""
-    order = []
-    for part in parts or millsim.PHYSICS_SOURCES:
-        inside = sorted((p for p in files if p.startswith(f"{part}/") and p.endswith(".py")),
-                        key=PurePosixPath)
-        single = part if part.endswith(".py") else f"{part}.py"
-        order += inside if inside else ([single] if single in files else [])
-    return order
 
 
 def repository(root=PACKAGE):

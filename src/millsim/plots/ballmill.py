@@ -19,9 +19,6 @@ from ..analysis.ballmill import BOND_AUSTIN_END, bond_austin_speed_factor
 from .style import SYMBOL, few_points_note, label, points
 
 SPEED = "n_over_nc"
-REFERENCE_END = BOND_AUSTIN_END
-
-
 def _label(var: xr.DataArray, name: str | None = None) -> str:
     return label(name or var.attrs.get("long_name", var.name), var.attrs.get("units", "1"))
 
@@ -58,7 +55,7 @@ def rate(ds: xr.Dataset, out: str) -> None:
         points(ax_power, sub[SPEED], sub["mean_drive_power"], color=f"C{k % 10}",
                label=f"simulation{suffix}")
     few_points_note(ax_power, n, "speed")
-    phi = np.linspace(0.0, REFERENCE_END, 400)
+    phi = np.linspace(0.0, BOND_AUSTIN_END, 400)
     ax_rate.plot(phi, bond_austin_speed_factor(phi), "k-", lw=1,
                  label="empirical reference shape: Bond/Austin speed factor\n"
                        r"$\varphi\,(1-0.1/2^{9-10\varphi})$, normalised")
