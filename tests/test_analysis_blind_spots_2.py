@@ -370,7 +370,8 @@ def _t10_case(path, material, ratio, t10, lo, hi, model):
     sieve = np.array([0.1, 0.5])
     data = {"energy_ratio": ((), ratio, "1"), "product_t10": ((), t10, "%"),
             "product_t10_ci_lo": ((), lo, "%"), "product_t10_ci_hi": ((), hi, "%"),
-            "product_t10_model": ((), model, "%"), "product_t10_model_all": ((), model, "%"),
+            "product_t10_expected": ((), model, "%"), "product_t10_model": ((), model, "%"),
+            "product_t10_model_all": ((), model, "%"),
             "t10_primary_model": ((), 5.0, "%"), "specific_energy": ((), 100.0 * ratio, "J kg-1"),
             "absorbed_share": ((), 0.8, "1"), "n_broken": ((), 40.0, "1"),
             "product_passing": (("sieve",), [10.0, 60.0], "%"),
@@ -389,7 +390,8 @@ def _t10_case(path, material, ratio, t10, lo, hi, model):
 def test_t10_aggregate_of_fragmentation_cases_by_hand(tmp_path, ratios):
     """t10 cases of two materials at the energy ratios given (limestone's recomputed ratio off in
     the tenth digit: the same column). eq 7 lies on the interval's lower end for copper and on
-    its upper end for limestone: both inside ([lo, hi] is closed). t10 / eq 7 = 12 / 10 and
+    its upper end for limestone: both inside ([lo, hi] is closed; eq 7 = mean of eq 8 here).
+    t10 / eq 7 = 12 / 10 and
     9 / 10 at every ratio; each set names its material and the variables' long names are words."""
     paths = []
     for i, r in enumerate(ratios):
@@ -405,5 +407,6 @@ def test_t10_aggregate_of_fragmentation_cases_by_hand(tmp_path, ratios):
     assert ratio == {"copper_ore": pytest.approx([1.2] * len(ratios)),
                      "limestone": pytest.approx([0.9] * len(ratios))}
     np.testing.assert_array_equal(ds["sieve"], [0.1, 0.5])
-    for name in ("t10", "t10_lo", "t10_model", "t10_broken", "t10_specific_energy"):
+    for name in ("t10", "t10_lo", "t10_expected", "t10_model", "t10_broken",
+                 "t10_specific_energy"):
         assert " " in ds[name].attrs["long_name"], name

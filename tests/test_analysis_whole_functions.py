@@ -200,16 +200,19 @@ def test_repeated_impacts_aggregate_by_hand(tmp_path):
     assert ds.attrs["rep_specific_energy_J_per_kg"] == 120.0
 
 
-T10_UNITS = {"t10": "%", "t10_lo": "%", "t10_hi": "%", "t10_model": "%", "t10_model_all": "%",
+T10_UNITS = {"t10": "%", "t10_lo": "%", "t10_hi": "%", "t10_expected": "%", "t10_model": "%", "t10_model_all": "%",
              "t10_primary": "%", "t10_specific_energy": "J kg-1", "t10_absorbed_share": "1",
              "t10_broken": "1"}
 
 
-def _t10_case(path, breakage_at, t10, lo, hi, model, ratio=2.0, mode="drop_weight"):
+def _t10_case(path, breakage_at, t10, lo, hi, expected, model=None, ratio=2.0,
+              mode="drop_weight"):
+    model = expected if model is None else model
     sieve = ("sieve",)
     return _case(path, dict(mode=mode, replacement=True, breakage_at=breakage_at), {
         "energy_ratio": ((), ratio), "product_t10": ((), t10), "product_t10_ci_lo": ((), lo),
-        "product_t10_ci_hi": ((), hi), "product_t10_model": ((), model),
+        "product_t10_ci_hi": ((), hi), "product_t10_expected": ((), expected),
+        "product_t10_model": ((), model),
         "product_t10_model_all": ((), model + 1.0), "t10_primary_model": ((), 5.0),
         "specific_energy": ((), 50.0 * ratio), "absorbed_share": ((), 0.8),
         "n_broken": ((), 30.0), "product_passing": (sieve, [8.0, 40.0, 90.0]),
@@ -230,8 +233,9 @@ def test_fragmentation_aggregate_by_hand(tmp_path, at):
     """One t10 case, and that case with a first_reach one (a documented deviation: no
     p-value, no verdict), beside a probability case (no product: not a t10 case). Every
     variable keeps its unit and words; the sieves are the cases'; the p-value is the normal one
-    of eq 7 against the interval's side towards it; Holm over the two tested verdicts."""
-    values = {"fracture": (12.0, 10.0, 15.0, 14.0), "first_reach": (7.0, 6.0, 9.0, 10.0)}
+    of the mean of eq 8 (not eq 7, reported beside it) against the interval's side towards it;
+    Holm over the two tested verdicts."""
+    values = {"fracture": (12.0, 10.0, 15.0, 14.0, 11.0), "first_reach": (7.0, 6.0, 9.0, 10.0)}
     paths = [_t10_case(tmp_path / f"{a}.nc", a, *values[a]) for a in at]
     ds = tv.aggregate([_probability_case(tmp_path / "prob.nc", 20, 0.5), *paths])
     # the probability group: its one case only, 20 of 50 against 0.5 (inside [0.26, 0.55])
@@ -252,7 +256,7 @@ def test_fragmentation_aggregate_by_hand(tmp_path, at):
         assert ds[name].attrs["units"] == unit, name
         assert " " in ds[name].attrs["long_name"], name
     assert float(ds["t10_specific_energy"][-1, 0]) == 100.0 and float(ds["t10_broken"][-1, 0]) == 30
-    assert float(ds["t10_model_all"][-1, 0]) == 15.0 and float(ds["t10_primary"][-1, 0]) == 5.0
+    assert float(ds["t10_model_all"][-1, 0]) == 12.0 and float(ds["t10_primary"][-1, 0]) == 5.0
     # 14 above 12: the upper half-width 3 is 1.96 standard errors
     p = normal_two_sided(2.0 / (3.0 / Z95))
     assert float(ds["t10_p_value"][-1, 0]) == pytest.approx(p, rel=1e-12)
@@ -263,7 +267,9 @@ def test_fragmentation_aggregate_by_hand(tmp_path, at):
     # Holm by hand: two tested verdicts, the smaller p-value against 0.05 / 2
     assert sorted([first["threshold"], prob["threshold"]]) == pytest.approx([0.025, 0.05])
     assert first["threshold"] == pytest.approx(0.025 if p < p_prob else 0.05, rel=1e-12)
-    assert first["t10_over_model"] == pytest.approx([12 / 14], rel=1e-12)
+    assert first["t10_over_expected"] == pytest.approx([12 / 14], rel=1e-12)
+    assert first["t10_over_model"] == pytest.approx([12 / 11], rel=1e-12)
+    assert float(ds["t10_expected"][-1, 0]) == 14.0 and float(ds["t10_model"][-1, 0]) == 11.0
     if len(at) == 2:
         dev = rules["limestone/drop_weight/5mm/first_reach"]
         assert math.isnan(dev["p_value"]) and dev["pass"] is None and dev["deviation"]

@@ -251,16 +251,19 @@ def test_passing_curve_and_fines_extension():
     lam = math.log(tn[3] / tn[6]) / math.log(75 / 4)  # eq 12
     assert tv.fines_exponent(t10, p) == pytest.approx(lam)
     assert tv.cumulative_passing(t10, 1 / 150, p) == pytest.approx(tn[6] * 0.5**lam)
-    # eq 11: B(x_min) = 1, power law below; event curve continuous at x_min
+    # eq 11: B(x_min) = 1; the fines follow the curve, so d/10 passes t10 / P(x_min) of them
     xm = tv.SIEVE_RATIO**-9
     assert tv.fines_passing(t10, xm, p) == pytest.approx(1.0)
-    assert tv.fines_passing(t10, xm / 2, p) == pytest.approx(0.5**lam)
+    pmin = tv.cumulative_passing(t10, xm, p)
+    assert tv.fines_passing(t10, 0.1, p) == pytest.approx(t10 / pmin)
+    assert tv.fines_passing(t10, 1 / 150, p) == pytest.approx(tn[6] * 0.5**lam / pmin)
     below, above = tv.event_passing(t10, [xm * (1 - 1e-9), xm], p)
     assert below == pytest.approx(above, rel=1e-6)
     x = np.logspace(-3, 0, 200)
     assert np.all(np.diff(tv.event_passing(t10, x, p)) >= 0)
-    # a fixed Gaudin-Schuhmann exponent overrides eq 12
-    assert tv.fines_passing(t10, xm / 2, p, fines_lambda=1.0) == pytest.approx(0.5)
+    assert np.all(np.diff(tv.fines_passing(t10, x, p)) >= 0)
+    # a fixed Gaudin-Schuhmann exponent overrides eq 12 below d/75
+    assert tv.fines_passing(t10, 1 / 150, p, fines_lambda=1.0) == pytest.approx(tn[6] * 0.5 / pmin)
 
 
 # ---- families -------------------------------------------------------------------------------

@@ -18,9 +18,12 @@ Analytic values:
 - fraction broken after each of n repeated impacts: numerical integration over the fracture-energy
   distribution of the damage sequence E_(k+1) = E_k (1 - D(e Ek / E_k)) (eqs 5-6), a particle
   breaking at the first impact with e Ek >= E_k (``repeated_impact_broken``);
-- t10 of the broken particles: eq 7, t10 = A [1 - exp(-b' Ek/E50b)], with E50b the median
-  fracture energy of the particles that break at that energy (Tavares and Carvalho 2009), on the
-  same basis as Ek (``t10_model``); the primary-event value of eq 9 for reference;
+- t10 of the broken particles: the mean of eq 8 over the fracture energies of the particles
+  that break (``t10_expected``), which the verdict tests; eq 7, t10 = A [1 - exp(-b' Ek/E50b)],
+  with E50b the median fracture energy of the particles that break at that energy (Tavares and
+  Carvalho 2009), on the same basis as Ek (``t10_model``), the population fit the paper's Fig. 16
+  draws, reported beside it (it lies up to ~30 % below the mean of eq 8); the primary-event value
+  of eq 9 for reference;
 - product size distribution of the broken particles: eq 10 through that t10, extended below d/75
   by the eq 11-12 power law (``product_passing_model``).
 
@@ -32,8 +35,8 @@ most ``FAMILY_ALPHA`` = 5 %:
   binomial test of the simulated broken count against the model's probability (eqs 1-3, or eqs
   1-6 integrated; the count of independent particles is binomial exactly), p-value by the
   minimum-likelihood method (Clopper & Pearson's binomial; scipy.stats.binomtest);
-- t10: z of eq 7 against the simulated t10, its standard error read from the 95 % bootstrap
-  interval (half-width / 1.96, a normal approximation);
+- t10: z of the mean of eq 8 against the simulated t10, its standard error read from the 95 %
+  bootstrap interval (half-width / 1.96, a normal approximation);
 - the points of a test combined by Bonferroni: p = min(1, k x the smallest of its k p-values), a
   valid p-value of "the model holds at every point" under any dependence between the points (the
   cumulative counts of repeated impacts are strongly dependent);
@@ -326,6 +329,7 @@ def _fragmentation(cases, out, coords, attrs):
     meta = {"t10": ("%", "t10 of the broken particles' product (simulation)", "product_t10"),
             "t10_lo": ("%", "95% bootstrap lower", "product_t10_ci_lo"),
             "t10_hi": ("%", "95% bootstrap upper", "product_t10_ci_hi"),
+            "t10_expected": ("%", "mean of eq 8 over the broken", "product_t10_expected"),
             "t10_model": ("%", "eq 7, E50b = median of the broken", "product_t10_model"),
             "t10_model_all": ("%", "eq 7, E50b = median of all particles", "product_t10_model_all"),
             "t10_primary": ("%", "eq 9, primary breakage at the fracture energy", "t10_primary_model"),
@@ -356,17 +360,18 @@ def _fragmentation(cases, out, coords, attrs):
                       {"units": "%", "long_name": "cumulative % passing, broken particles' product"})
     out["psd_model"] = (("frag_case", "frag_ratio", "sieve"), psd_model,
                         {"units": "%", "long_name": "eq 10 + eqs 11-12 at the eq 7 t10"})
-    inside = _inside(arr["t10_model"], arr["t10_lo"], arr["t10_hi"], arr["t10"])
-    out["t10_inside"] = (("frag_case", "frag_ratio"), inside,
-                         {"units": "1", "long_name": "eq 7 inside the 95% bootstrap interval"})
-    p_points = interval_p_value(arr["t10"], arr["t10_lo"], arr["t10_hi"], arr["t10_model"])
+    inside = _inside(arr["t10_expected"], arr["t10_lo"], arr["t10_hi"], arr["t10"])
+    out["t10_inside"] = (("frag_case", "frag_ratio"), inside, {
+        "units": "1", "long_name": "mean of eq 8 inside the 95% bootstrap interval"})
+    p_points = interval_p_value(arr["t10"], arr["t10_lo"], arr["t10_hi"], arr["t10_expected"])
     out["t10_p_value"] = (("frag_case", "frag_ratio"), p_points, {"units": "1", "long_name":
-                          "two-sided p-value of eq 7 (normal, from the 95 % bootstrap interval)"})
+                          "two-sided p-value of the mean of eq 8 (normal, from the 95 % "
+                          "bootstrap interval)"})
     rule = {}
     for i, k in enumerate(keys):
         r = _rule(inside[i], p_points[i], "bootstrap-normal", DEVIATIONS.get(k[3], ""))
-        ratio = arr["t10"][i] / arr["t10_model"][i]
-        r["t10_over_model"] = [float(x) for x in ratio]
+        r["t10_over_expected"] = [float(x) for x in arr["t10"][i] / arr["t10_expected"][i]]
+        r["t10_over_model"] = [float(x) for x in arr["t10"][i] / arr["t10_model"][i]]
         rule[_frag_label(k)] = r
     attrs["pass_rule_t10"] = json.dumps(rule)
 

@@ -14,6 +14,7 @@ from ..models.breakage import tavares, tavares_materials
 from ..models.breakage.tavares_predictions import (
     breakage_probability,
     product_passing_model,
+    t10_expected,
     t10_model,
 )
 from .style import SYMBOL, dense, few_points_note, label
@@ -115,10 +116,12 @@ def t10(ds, out):
         mat, d, share = _frag_model(ds, cases[0])  # the model does not depend on breakage_at
         mine = energies[cases]
         E = dense(np.nanmin(mine) / 1.6, np.nanmax(mine) * 1.6, 200, log=True)
-        for median, style, text in (("broken", "-", f"eq 7, {SYMBOL['E50b']} of the broken"),
+        ax.plot(E, [t10_expected(mat, d, e, share, grid=20_000) for e in E], "-", color="k",
+                lw=1.3, label="mean of eq 8 over the broken (tested)")
+        for median, style, text in (("broken", "-.", f"eq 7, {SYMBOL['E50b']} of the broken"),
                                     ("all", ":", "eq 7, median of all")):
             ax.plot(E, [t10_model(mat, d, e, share, median) for e in E], style, color="k",
-                    lw=1, label=text)
+                    lw=0.9, label=text)
         ax.axhline(float(np.nanmean(ds["t10_primary"].isel(frag_case=cases[0]))), color="0.5",
                    ls="--", lw=0.9, label="eq 9 (breakage at the fracture energy)")
         for i in cases:

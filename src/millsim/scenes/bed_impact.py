@@ -231,7 +231,7 @@ class BedEvent(NamedTuple):
 def product_passing(sizes, masses, dummy, dummy_t10, t10_recorded, events, mat, sieves=SIEVES):
     """Mass [kg] passing each sieve: resolved spheres by size, resolved-unbreakable ones that
     recorded a breaking event by eq 13; dummy spheres and unresolved fines spread below their size
-    by eq 11 (B = (x/x_dummy)^lambda, lambda from eq 12 at their t10')."""
+    by eq 11 (``tavares.fines_passing``: the family's eq 10 curve at their t10' below x_min)."""
     res = ~dummy
     passing = replacement_passing(sizes[res], masses[res], t10_recorded[res], mat, sieves)
     for d, m, t10 in zip(sizes[dummy], masses[dummy], dummy_t10[dummy]):

@@ -442,6 +442,8 @@ class SingleParticleCase(Case):
         Output("product_t10_ci_lo", (), "%", "95% bootstrap lower",
                "percentile bootstrap of the mean over the broken particles", when=_replacing),
         Output("product_t10_ci_hi", (), "%", "95% bootstrap upper", when=_replacing),
+        Output("product_t10_expected", (), "%", "mean of eq 8 over the particles that break",
+               when=_replacing),
         Output("product_t10_model", (), "%", "eq 7, E50b = median of the broken", when=_replacing),
         Output("product_t10_model_all", (), "%", "eq 7, E50b = median of all", when=_replacing),
         Output("fines_mass", (), "kg", "unresolved fines mass", when=_replacing),
@@ -598,6 +600,7 @@ class SingleParticleCase(Case):
                 "product_passing_model": tv.product_passing_model(s.mat, d0, s.specific_energy,
                                                                   s.share, SIEVES),
                 "product_t10": t10_pool, "product_t10_ci_lo": blo, "product_t10_ci_hi": bhi,
+                "product_t10_expected": tv.t10_expected(s.mat, d0, s.specific_energy, s.share),
                 "product_t10_model": tv.t10_model(s.mat, d0, s.specific_energy, s.share),
                 "product_t10_model_all": tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"),
                 "fines_mass": replace.fines_mass, "mass_balance_error": balance}
