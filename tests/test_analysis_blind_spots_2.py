@@ -370,7 +370,9 @@ def _t10_case(path, material, ratio, t10, lo, hi, model):
     sieve = np.array([0.1, 0.5])
     data = {"energy_ratio": ((), ratio, "1"), "product_t10": ((), t10, "%"),
             "product_t10_ci_lo": ((), lo, "%"), "product_t10_ci_hi": ((), hi, "%"),
-            "product_t10_expected": ((), model, "%"), "product_t10_model": ((), model, "%"),
+            "product_t10_expected": ((), model, "%"), "product_t10_spread": ((), 3.0, "%"),
+            "product_t10_p_value": ((), 0.4, "1"),
+            "product_t10_model": ((), model, "%"),
             "product_t10_model_all": ((), model, "%"),
             "t10_primary_model": ((), 5.0, "%"), "specific_energy": ((), 100.0 * ratio, "J kg-1"),
             "absorbed_share": ((), 0.8, "1"), "n_broken": ((), 40.0, "1"),

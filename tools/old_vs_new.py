@@ -49,15 +49,18 @@ def tavares(old, new):
             (fo, lo, ho, m, io), (fn, ln, hn, _, i_n) = row
             print(f"| P(broken) | {mode} | {ratio:g} | {fo:.3f} ({lo:.3f}-{ho:.3f}) | "
                   f"{fn:.3f} ({ln:.3f}-{hn:.3f}) | {m:.3f} | {io} / {i_n} |")
+    print()
+    print("| t10 [%] | set | E/E50 | old (95 % CI) | new (95 % CI) | mean of eq 8 | eq 7 | "
+          "tested value inside: old (eq 7) / new (its reference) |")
+    print("|---|---|---|---|---|---|---|---|")
     for case in a.frag_case.values:
-        row = []
-        for ds in (a, b):
-            s = ds.sel(frag_case=case).isel(frag_ratio=0)
-            row.append((float(s.t10), float(s.t10_lo), float(s.t10_hi), float(s.t10_model),
-                        bool(s.t10_inside)))
-        (fo, lo, ho, m, io), (fn, ln, hn, _, i_n) = row
-        print(f"| t10 [%] | {case} | {float(a.frag_ratio[0]):g} | {fo:.2f} ({lo:.2f}-{ho:.2f}) | "
-              f"{fn:.2f} ({ln:.2f}-{hn:.2f}) | {m:.2f} | {io} / {i_n} |")
+        for ratio in a.frag_ratio.values:
+            so, sn = (ds.sel(frag_case=case, frag_ratio=ratio) for ds in (a, b))
+            expected = float(sn.t10_expected) if "t10_expected" in sn else float("nan")
+            print(f"| t10 | {case} | {float(ratio):g} | {float(so.t10):.2f} "
+                  f"({float(so.t10_lo):.2f}-{float(so.t10_hi):.2f}) | {float(sn.t10):.2f} "
+                  f"({float(sn.t10_lo):.2f}-{float(sn.t10_hi):.2f}) | {expected:.2f} | "
+                  f"{float(sn.t10_model):.2f} | {bool(so.t10_inside)} / {bool(sn.t10_inside)} |")
     print()
 
 

@@ -35,8 +35,12 @@ most ``FAMILY_ALPHA`` = 5 %:
   binomial test of the simulated broken count against the model's probability (eqs 1-3, or eqs
   1-6 integrated; the count of independent particles is binomial exactly), p-value by the
   minimum-likelihood method (Clopper & Pearson's binomial; scipy.stats.binomtest);
-- t10: z of the mean of eq 8 against the simulated t10, its standard error read from the 95 %
-  bootstrap interval (half-width / 1.96, a normal approximation);
+- t10: the simulated t10 of the broken particles against the model's own distribution of that
+  mean (their fracture energies drawn, eq 8, the family's spread; Monte Carlo,
+  ``tavares_predictions.t10_p_value``, computed by the scene); the 95 % bootstrap interval is
+  drawn, not tested: read from a skewed sample of ~25 broken particles it rejected a correct
+  model in 11-15 % of draws at the nominal 5 %, and a normal z with the model's spread still let
+  a correct 36-point set fail 7.6 % of the time;
 - the points of a test combined by Bonferroni: p = min(1, k x the smallest of its k p-values), a
   valid p-value of "the model holds at every point" under any dependence between the points (the
   cumulative counts of repeated impacts are strongly dependent);
@@ -330,6 +334,10 @@ def _fragmentation(cases, out, coords, attrs):
             "t10_lo": ("%", "95% bootstrap lower", "product_t10_ci_lo"),
             "t10_hi": ("%", "95% bootstrap upper", "product_t10_ci_hi"),
             "t10_expected": ("%", "mean of eq 8 over the broken", "product_t10_expected"),
+            "t10_spread": ("%", "model standard deviation of one broken particle's t10",
+                           "product_t10_spread"),
+            "p_value": ("1", "two-sided p-value against the model's distribution of the mean",
+                        "product_t10_p_value"),
             "t10_model": ("%", "eq 7, E50b = median of the broken", "product_t10_model"),
             "t10_model_all": ("%", "eq 7, E50b = median of all particles", "product_t10_model_all"),
             "t10_primary": ("%", "eq 9, primary breakage at the fracture energy", "t10_primary_model"),
@@ -363,13 +371,10 @@ def _fragmentation(cases, out, coords, attrs):
     inside = _inside(arr["t10_expected"], arr["t10_lo"], arr["t10_hi"], arr["t10"])
     out["t10_inside"] = (("frag_case", "frag_ratio"), inside, {
         "units": "1", "long_name": "mean of eq 8 inside the 95% bootstrap interval"})
-    p_points = interval_p_value(arr["t10"], arr["t10_lo"], arr["t10_hi"], arr["t10_expected"])
-    out["t10_p_value"] = (("frag_case", "frag_ratio"), p_points, {"units": "1", "long_name":
-                          "two-sided p-value of the mean of eq 8 (normal, from the 95 % "
-                          "bootstrap interval)"})
+    p_points = arr["p_value"]
     rule = {}
     for i, k in enumerate(keys):
-        r = _rule(inside[i], p_points[i], "bootstrap-normal", DEVIATIONS.get(k[3], ""))
+        r = _rule(inside[i], p_points[i], "model-monte-carlo", DEVIATIONS.get(k[3], ""))
         r["t10_over_expected"] = [float(x) for x in arr["t10"][i] / arr["t10_expected"][i]]
         r["t10_over_model"] = [float(x) for x in arr["t10"][i] / arr["t10_model"][i]]
         rule[_frag_label(k)] = r

@@ -171,8 +171,9 @@ _ENTRIES = (
          "with E50b the median fracture energy of the broken particles, dotted: with the median "
          "of all (the paper's population fit, reported), on a dense grid of energies; dashed: "
          "eq 9 (breakage at exactly the fracture energy). Bars: 95% bootstrap intervals over "
-         "particles. Verdict (end of loading): the solid line against the bars, p-values "
-         "combined by Bonferroni and Holm (family-wise 5 %). " + _FEW),
+         "particles (drawn, not tested). Verdict (end of loading): each t10 against the model's "
+         "Monte Carlo distribution of the mean of the broken, p-values combined by Bonferroni "
+         "and Holm (family-wise 5 %). " + _FEW),
     Plot("tavares_size_distributions", "tavares:size_distributions",
          "aggregate:tavares_verification",
          "Cumulative size distribution of the broken particles' product, one panel per "

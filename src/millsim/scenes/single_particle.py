@@ -444,6 +444,10 @@ class SingleParticleCase(Case):
         Output("product_t10_ci_hi", (), "%", "95% bootstrap upper", when=_replacing),
         Output("product_t10_expected", (), "%", "mean of eq 8 over the particles that break",
                when=_replacing),
+        Output("product_t10_spread", (), "%", "model standard deviation of one broken particle's "
+               "product t10 (fracture energy and family drawn)", when=_replacing),
+        Output("product_t10_p_value", (), "1", "two-sided p-value of product_t10 against the "
+               "model's distribution of the mean of the broken (Monte Carlo)", when=_replacing),
         Output("product_t10_model", (), "%", "eq 7, E50b = median of the broken", when=_replacing),
         Output("product_t10_model_all", (), "%", "eq 7, E50b = median of all", when=_replacing),
         Output("fines_mass", (), "kg", "unresolved fines mass", when=_replacing),
@@ -601,6 +605,9 @@ class SingleParticleCase(Case):
                                                                   s.share, SIEVES),
                 "product_t10": t10_pool, "product_t10_ci_lo": blo, "product_t10_ci_hi": bhi,
                 "product_t10_expected": tv.t10_expected(s.mat, d0, s.specific_energy, s.share),
+                "product_t10_spread": tv.t10_spread(s.mat, d0, s.specific_energy, s.share),
+                "product_t10_p_value": tv.t10_p_value(s.mat, d0, s.specific_energy, s.share,
+                                                      t10_pool, nb, seed=s.case_seed),
                 "product_t10_model": tv.t10_model(s.mat, d0, s.specific_energy, s.share),
                 "product_t10_model_all": tv.t10_model(s.mat, d0, s.specific_energy, s.share, "all"),
                 "fines_mass": replace.fines_mass, "mass_balance_error": balance}

@@ -110,6 +110,17 @@ def t10_model(mat, d, specific_energy, share, median="broken"):
     return float(tavares.t10_population(mat, absorbed, E50b))
 
 
+def _broken_energies(mat, d, absorbed, grid):
+    """Fracture energies at ``grid`` midpoint quantiles of the particles that break at absorbed
+    energy ``absorbed`` (E <= absorbed, probability p of eqs 1-3), or None when none breaks."""
+    p = float(tavares.fracture_energy_cdf(mat, d, absorbed))
+    if p <= 0:
+        return None
+    E50 = float(tavares.median_fracture_energy(mat, d))
+    u = (np.arange(grid) + 0.5) / grid * p
+    return tavares.truncated_lognormal_ppf(u, E50, mat.Emax_over_E50 * E50, mat.sigma)
+
+
 def t10_expected(mat, d, specific_energy, share, grid=200_000):
     """Mean t10' [%] of eq 8 over the particles that break at input energy Ek/m, each at the
     absorbed energy e Ek/m against its own fracture energy (breakage at the end of loading).
@@ -121,13 +132,73 @@ def t10_expected(mat, d, specific_energy, share, grid=200_000):
     function of a mean), by up to ~30 % at these energies.
     """
     absorbed = share * float(specific_energy)
-    p = float(tavares.fracture_energy_cdf(mat, d, absorbed))
-    if p <= 0:
+    E = _broken_energies(mat, d, absorbed, grid)
+    if E is None:
         return math.nan
-    E50 = float(tavares.median_fracture_energy(mat, d))
-    u = (np.arange(grid) + 0.5) / grid * p
-    E = tavares.truncated_lognormal_ppf(u, E50, mat.Emax_over_E50 * E50, mat.sigma)
     return float(np.mean(tavares.t10_prime(mat, absorbed, E)))
+
+
+def _family_variance(mat, absorbed, E, family_points):
+    """Mean over ``family_points`` quantiles of the broken energies ``E`` of the variance of one
+    particle's product t10 [%^2] over the family drawn at its t10': the family's dummy share,
+    whose fines pass d/10 by eq 11 (B(1/10) of ``tavares.fines_passing``)."""
+    at = E[((np.arange(family_points) + 0.5) / family_points * E.size).astype(np.int64)]
+    total = 0.0
+    for E_q in at:
+        t10 = progeny_families.t10_grid(tavares.t10_prime(mat, absorbed, E_q))
+        table = progeny_families.families(mat, t10)
+        per = 100.0 * table.fractions[:, -1] * float(tavares.fines_passing(t10, 0.1, mat))
+        mean = float(table.probabilities @ per)
+        total += float(table.probabilities @ (per - mean) ** 2)
+    return total / family_points
+
+
+def t10_spread(mat, d, specific_energy, share, grid=200_000, family_points=16):
+    """Standard deviation [%] of one broken particle's product t10 under the model.
+
+    Two draws make it: the particle's fracture energy (the spread of eq 8's t10' over the broken,
+    integrated as in ``t10_expected``) and the progeny family drawn at that t10' (its dummy share):
+    Var = Var_E(t10') + E_E[Var_f], the second term averaged over ``family_points`` quantiles.
+    """
+    absorbed = share * float(specific_energy)
+    E = _broken_energies(mat, d, absorbed, grid)
+    if E is None:
+        return math.nan
+    variance = float(np.var(tavares.t10_prime(mat, absorbed, E)))
+    return math.sqrt(variance + _family_variance(mat, absorbed, E, family_points))
+
+
+def t10_p_value(mat, d, specific_energy, share, observed, broken, draws=50_000, seed=0,
+                grid=20_000, family_points=16):
+    """Two-sided p-value of a product t10 ``observed`` [%] of ``broken`` particles against the
+    model, from the model's own distribution of that mean (Monte Carlo, ``draws`` samples).
+
+    Each sample is the mean of ``broken`` particles: a fracture energy drawn from the broken
+    (uniform over ``grid`` quantiles below P(e Ek/m)), eq 8's t10' and the family's spread as
+    a normal of variance E_E[Var_f] (``t10_spread``'s second term). The mean of ~25 right-skewed
+    t10' is not normal: a normal z with the model's spread failed a correct set of 6 x 6 paper
+    points in 7.6 % of 1500 draws (Holm over the sets at 5 %); this distribution holds it
+    (docs/results/single_particle_paper.md). p = 2 min(P(<= observed), P(>= observed)) with the
+    (count + 1)/(draws + 1) rule, so it is never below 2/(draws + 1); NaN without a broken
+    particle.
+    """
+    absorbed = share * float(specific_energy)
+    E = _broken_energies(mat, d, absorbed, grid)
+    n = int(broken)
+    if E is None or n < 1 or not np.isfinite(observed):
+        return math.nan
+    t = tavares.t10_prime(mat, absorbed, E)
+    family_sd = math.sqrt(_family_variance(mat, absorbed, E, family_points))
+    rng = np.random.default_rng(seed)
+    means = np.empty(draws)
+    chunk = max(1, 2_000_000 // n)
+    for start in range(0, draws, chunk):
+        k = min(chunk, draws - start)
+        sample = t[rng.integers(0, t.size, size=(k, n))] + family_sd * rng.standard_normal((k, n))
+        means[start:start + k] = sample.mean(axis=1)
+    below = (np.count_nonzero(means <= observed) + 1) / (draws + 1)
+    above = (np.count_nonzero(means >= observed) + 1) / (draws + 1)
+    return float(min(1.0, 2.0 * min(below, above)))
 
 
 def product_passing_model(mat, d, specific_energy, share, x_rel, median="broken"):
