@@ -40,7 +40,7 @@ most ``FAMILY_ALPHA`` = 5 %:
   ``tavares_predictions.t10_p_value``, computed by the scene); the 95 % bootstrap interval is
   drawn, not tested: read from a skewed sample of ~25 broken particles it rejected a correct
   model in 12-15 % of draws at the nominal 5 %, and a normal z with the model's spread still let
-  a correct 36-point set fail 7.6 % of the time;
+  a correct 36-point set fail 6.5 % of 1500 draws (tools/t10_false_alarm.py);
 - the points of a test combined by Bonferroni: p = min(1, k x the smallest of its k p-values), a
   valid p-value of "the model holds at every point" under any dependence between the points (the
   cumulative counts of repeated impacts are strongly dependent);
