@@ -592,9 +592,10 @@ def test_t10_expected_is_the_mean_of_eq8_over_the_broken(mats_sp, name):
     for ratio in (0.5, 2.0, 8.0):
         Ek = ratio * E50 / e
         P = ref_cdf(e * Ek, E50, Emax, mat.sigma)
-        mean, _ = integrate.quad(lambda u: ref_t10(mat.A, mat.b_prime,
-                                                   e * Ek / ref_quantile(u, E50, Emax, mat.sigma)),
-                                 0.0, P, limit=200, epsabs=1e-9, epsrel=1e-9)
+        def eq8(u, absorbed=e * Ek):
+            return ref_t10(mat.A, mat.b_prime, absorbed / ref_quantile(u, E50, Emax, mat.sigma))
+
+        mean, _ = integrate.quad(eq8, 0.0, P, limit=200, epsabs=1e-9, epsrel=1e-9)
         got = ver.t10_expected(mat, d, Ek, e)
         assert got == pytest.approx(mean / P, rel=2e-4)
         assert got > ver.t10_model(mat, d, Ek, e)

@@ -33,6 +33,7 @@ assert text.count(m["find"]) == 1, "find not unique"
 f.write_text(text.replace(m["find"], m["replace"]))
 env = dict(os.environ, PYTHONPATH=str(work / "src"), NUMBA_CACHE_DIR=str(work / "numba"))
 py = sys.executable
+cli = [py, "-c", "import sys; from millsim.cli import main; sys.argv[0] = 'millsim'; sys.exit(main())"]
 if which == "quick":
     mat, n, energies = "copper_ore", 20, ["1.0", "2.0", "4.0"]
 else:
@@ -40,16 +41,16 @@ else:
 outs = []
 for e in energies:
     out = work / f"t10_{e}.nc"
-    subprocess.run([py, "-c", "import sys; from millsim.cli import main; sys.argv[0] = 'millsim'; sys.exit(main())", "run", "single_particle", "--quiet", "--set", "seed=1",
+    subprocess.run([*cli, "run", "single_particle", "--quiet", "--set", "seed=1",
                     "--set", f"material={mat}", "--set", "mode=single", "--set", "diameter=0.029",
                     "--set", f"energy_ratio={e}", "--set", f"n_particles={n}",
                     "--set", "breakage_at=end_of_loading", "--set", "dt_factor=0.5",
                     "--out", str(out)], check=True, env=env, cwd=work)
     outs.append(str(out))
 agg = work / "agg.nc"
-subprocess.run([py, "-c", "import sys; from millsim.cli import main; sys.argv[0] = 'millsim'; sys.exit(main())", "analyse", "tavares", "aggregate", *outs, "--out", str(agg)],
+subprocess.run([*cli, "analyse", "tavares", "aggregate", *outs, "--out", str(agg)],
                check=True, env=env, cwd=work)
-subprocess.run([py, "-c", "import sys; from millsim.cli import main; sys.argv[0] = 'millsim'; sys.exit(main())", "results-page", "single_particle", str(agg), "--out",
+subprocess.run([*cli, "results-page", "single_particle", str(agg), "--out",
                 str(work / "page.md")], check=True, env=env, cwd=work)
 print(subprocess.run([py, "-c", "import millsim; print(millsim.provenance_hash())"], env=env,
                      capture_output=True, text=True).stdout.strip())

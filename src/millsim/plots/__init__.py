@@ -144,7 +144,8 @@ _ENTRIES = (
          "each energy; no line joins the energies, as the radius jumps from site to site."),
     Plot("bed_size_distributions", "bed_impact:size_distributions", "aggregate:bed_breakage",
          "Product size distributions (cumulative % passing; dummy spheres and unresolved fines "
-         "spread below their size along the family's eq 10 curve, eq 11 below d/75), mean over seeds: one panel per bed run at several "
+         "spread below their size along the family's eq 10 curve, eq 11 below d/75), mean over "
+         "seeds: one panel per bed run at several "
          "impact energies, a line per energy (Fig. 21 of Tavares et al. 2021), and one panel per "
          "material run in several bed configurations, a line per configuration at 3.05 J "
          "(Fig. 23). With one bed at one energy, that one distribution."),
@@ -178,7 +179,8 @@ _ENTRIES = (
          "aggregate:tavares_verification",
          "Cumulative size distribution of the broken particles' product, one panel per "
          "fragmentation case, one colour per energy: symbols, the simulation (dummy class spread "
-         "below x_min along the family's eq 10 curve, eq 11 below d/75); lines, eq 10 at the eq 7 t10 on a dense grid of sizes, as "
+         "below x_min along the family's eq 10 curve, eq 11 below d/75); lines, eq 10 at the eq 7 "
+         "t10 on a dense grid of sizes, as "
          "Figs 13-15 of Tavares et al. 2021. Black dashed: smallest family size 0.21 d; red "
          "dashed: global minimum size d/20."),
     Plot("tavares_table2", "tavares:table2", "aggregate:tavares_verification",
