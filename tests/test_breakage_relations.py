@@ -551,6 +551,12 @@ def test_clopper_pearson_is_the_exact_binomial_tail(level):
             assert (k / n - p) ** 2 == pytest.approx(z * z * p * (1 - p) / n, rel=1e-9, abs=1e-15)
 
 
+def on_steel(mat, d):
+    """(absorbed share on steel by eq 4, median E50 by eq 3, Emax) of a particle of size d."""
+    E50 = ref_E50(mat, d)
+    return ref_share(hertz_k(mat.young, mat.poisson), K_STEEL), E50, mat.Emax_over_E50 * E50
+
+
 @pytest.mark.parametrize("name", BREAKABLE)
 def test_breakage_probability_and_t10_model_of_the_verification(mats_sp, name):
     """Verification expectations (Tavares et al. 2021, section 4.1): the broken fraction at input
@@ -560,9 +566,7 @@ def test_breakage_probability_and_t10_model_of_the_verification(mats_sp, name):
     Ek != E50b."""
     mat = mats_sp[name]
     d = 5.5e-3
-    e = ref_share(hertz_k(mat.young, mat.poisson), K_STEEL)
-    E50 = ref_E50(mat, d)
-    Emax = mat.Emax_over_E50 * E50
+    e, E50, Emax = on_steel(mat, d)
     for ratio in (0.3, 1.0, 3.0):
         Ek = ratio * E50 / e  # stressing (input) basis
         P = ref_cdf(e * Ek, E50, Emax, mat.sigma)
@@ -586,9 +590,7 @@ def test_t10_expected_is_the_mean_of_eq8_over_the_broken(mats_sp, name):
 
     mat = mats_sp[name]
     d = 29e-3
-    e = ref_share(hertz_k(mat.young, mat.poisson), K_STEEL)
-    E50 = ref_E50(mat, d)
-    Emax = mat.Emax_over_E50 * E50
+    e, E50, Emax = on_steel(mat, d)
     for ratio in (0.5, 2.0, 8.0):
         Ek = ratio * E50 / e
         P = ref_cdf(e * Ek, E50, Emax, mat.sigma)
