@@ -133,11 +133,10 @@ _TAVARES_RULES = {
     "t10": "the mean of eq 8 over the broken against the simulated t10 at each energy, "
            "two-sided p from the model's Monte Carlo distribution of that mean" + _SET_RULE,
 }
-_WHERE = {group: f"millsim.analysis.tavares_verification.{test}, bonferroni, holm"
-          for group, test in (("probability", "binomial_p_value"),
-                              ("repeated", "binomial_p_value"))}
-_WHERE["t10"] = ("millsim.models.breakage.tavares_predictions.t10_p_value, "
-                 "millsim.analysis.tavares_verification.bonferroni, holm")
+_BINOMIAL = "millsim.analysis.tavares_verification.binomial_p_value, bonferroni, holm"
+_WHERE = {"probability": _BINOMIAL, "repeated": _BINOMIAL,
+          "t10": "millsim.models.breakage.tavares_predictions.t10_p_value, "
+                 "millsim.analysis.tavares_verification.bonferroni, holm"}
 _DEVIATION_RULE = ("known limitation of breakage_at: first_reach (breaks at the fracture energy, "
                    "t10 below eq 7; docs/tavares.md section 5): reported with its numbers, not "
                    "tested (millsim.analysis.tavares_verification.DEVIATIONS)")
