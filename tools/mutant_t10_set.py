@@ -9,13 +9,12 @@ Single impact, 29 mm, breakage at the end of loading, seed 1. Work tree: $TMPDIR
 """
 import argparse
 import os
-import shutil
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-import yaml
+from mutate import apply, load_mutants
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("mutant", help="id in tools/mutants.yaml")
@@ -23,14 +22,15 @@ ap.add_argument("set", choices=("quick", "paper_limestone"))
 args = ap.parse_args()
 mid, which = args.mutant, args.set
 root = Path(__file__).resolve().parents[1]
-m = next(x for x in yaml.safe_load((root / "tools/mutants.yaml").read_text()) if x["id"] == mid)
+m = next((x for x in load_mutants() if x["id"] == mid), None)
+if m is None:
+    sys.exit(f"mutant_t10_set: no mutant {mid!r} in tools/mutants.yaml")
 work = Path(tempfile.mkdtemp(prefix=f"millsim-mutant-{mid}-{which}-"))
-shutil.copytree(root / "src", work / "src")
-shutil.copytree(root / "config", work / "config")
-f = work / m["file"]
-text = f.read_text()
-assert text.count(m["find"]) == 1, "find not unique"
-f.write_text(text.replace(m["find"], m["replace"]))
+for part in ("src", "config"):  # all the cases read
+    subprocess.run(["cp", "-r", str(root / part), str(work / part)], check=True)
+stale = apply(m, work)
+if stale:
+    sys.exit(f"mutant_t10_set: {mid}: {stale}")
 env = dict(os.environ, PYTHONPATH=str(work / "src"), NUMBA_CACHE_DIR=str(work / "numba"))
 py = sys.executable
 cli = [py, "-c", "import sys; from millsim.cli import main; sys.argv[0] = 'millsim'; sys.exit(main())"]
