@@ -37,6 +37,13 @@ K, GAMMA, E_MIN = 0, 1, 2
 
 TavaresBundle = namedtuple("TavaresBundle", ["table", "e_acc", "e_frac", "break_at_end", "broke",
                                              "stress_dir"])
+# With the stress log: per particle, the absorbed specific energies of its ended events not yet
+# drained (log_energy[i, :log_count[i]]).
+TavaresLogBundle = namedtuple("TavaresLogBundle", [*TavaresBundle._fields, "log_energy",
+                                                   "log_count"])
+LOG_DEPTH = 32  # events a particle holds before it stops the chunk to have them drained
+# Event-table rows of the stress-log variant: a seventh column says which kind of row it is.
+ROW_BREAKAGE, ROW_STRESS = 0.0, 1.0
 
 
 def _pair_reference(bs, state, k, base, apart, rsum, dist2):
@@ -139,6 +146,35 @@ def _particle_decide(bs, i, acc, inv_mass, material, stop):
             e_acc[i] = 0.0
 
 
+def _particle_decide_log(bs, i, acc, inv_mass, material, stop):
+    # _particle_decide, and every event that ends unbroken is logged with its absorbed specific
+    # energy (the one it damaged by); a full log stops the chunk so that it is drained.
+    work, fbig, d0, d1, d2 = acc
+    e_acc, e_frac = bs.e_acc, bs.e_frac
+    bs.broke[i] = 0
+    if work > 0.0:
+        e_acc[i] += work
+        if e_acc[i] * inv_mass >= e_frac[i] and not bs.break_at_end[i]:
+            bs.broke[i] = 1
+            bs.stress_dir[i, 0], bs.stress_dir[i, 1], bs.stress_dir[i, 2] = d0, d1, d2
+            stop[0] = 1
+    elif e_acc[i] > 0.0:
+        specific = e_acc[i] * inv_mass
+        if bs.break_at_end[i] and specific >= e_frac[i]:
+            bs.broke[i] = 1
+            stop[0] = 1
+        else:
+            if specific >= bs.table[material, E_MIN]:
+                e_frac[i] *= 1.0 - damage_fraction(specific / e_frac[i], bs.table[material, GAMMA])
+                n = bs.log_count[i]
+                if n < bs.log_energy.shape[1]:  # (a count beyond it is refused at the drain)
+                    bs.log_energy[i, n] = specific
+                bs.log_count[i] = n + 1
+                if n + 1 >= bs.log_energy.shape[1]:
+                    stop[0] = 1
+            e_acc[i] = 0.0
+
+
 def _collect(bs, events, n_events, out, col, start, nbr, inv_mass, step):
     # Rows in particle order: [particle, absorbed specific energy, step, direction of the
     # largest contact force (3)].
@@ -161,6 +197,42 @@ def _collect(bs, events, n_events, out, col, start, nbr, inv_mass, step):
     return events
 
 
+def _collect_log(bs, events, n_events, out, col, start, nbr, inv_mass, step):
+    # Rows: first every logged event [particle, absorbed specific energy, step of the drain,
+    # broke = 0, 0, 0, ROW_STRESS] in particle order, then per breaking particle its decision
+    # [particle, specific energy, step, direction (3), ROW_BREAKAGE] and its event in the log
+    # [particle, specific energy, step, broke = 1, 0, 0, ROW_STRESS].
+    broke, count = bs.broke, bs.log_count
+    needed = n_events[0]
+    for i in range(broke.shape[0]):
+        if count[i] > bs.log_energy.shape[1]:
+            raise RuntimeError("stress log: a particle ended more events than it holds")
+        needed += count[i] + 2 * broke[i]
+    events = room_for(events, n_events[0], needed)
+    for i in range(broke.shape[0]):
+        for k in range(count[i]):
+            row = events[n_events[0]]
+            row[0], row[1], row[2] = i, bs.log_energy[i, k], step
+            row[3], row[4], row[5], row[6] = 0.0, 0.0, 0.0, ROW_STRESS
+            n_events[0] += 1
+        count[i] = 0
+    for i in range(broke.shape[0]):
+        if broke[i]:
+            specific = bs.e_acc[i] * inv_mass[i]
+            row = events[n_events[0]]
+            row[0], row[1], row[2] = i, specific, step
+            row[3], row[4], row[5] = bs.stress_dir[i, 0], bs.stress_dir[i, 1], bs.stress_dir[i, 2]
+            row[6] = ROW_BREAKAGE
+            row = events[n_events[0] + 1]
+            row[0], row[1], row[2] = i, specific, step
+            row[3], row[4], row[5], row[6] = 1.0, 0.0, 0.0, ROW_STRESS
+            n_events[0] += 2
+            broke[i] = 0
+            if bs.break_at_end[i]:
+                bs.e_acc[i] = 0.0  # the event has ended: reported once
+    return events
+
+
 def _kernel(fn):
     return stable_identity(njit(inline="always", cache=True)(fn), f"tavares.{fn.__name__}")
 
@@ -172,6 +244,11 @@ KERNELS = NO_BREAKAGE._replace(
     wall_loaded=_kernel(_wall_loaded),
     particle_decide=_kernel(_particle_decide),
     collect=stable_identity(njit(cache=True)(_collect), "tavares._collect"))
+# The stress-log variant (TavaresModel(stress_log=True)): its own loop, compiled only for a scene
+# that asks for it; the loop of every other scene is the one above.
+LOG_KERNELS = KERNELS._replace(
+    particle_decide=_kernel(_particle_decide_log),
+    collect=stable_identity(njit(cache=True)(_collect_log), "tavares._collect_log"))
 
 
 class BreakageDecision(NamedTuple):
@@ -183,6 +260,16 @@ class BreakageDecision(NamedTuple):
     direction: np.ndarray  # unit vector of its largest contact force
 
 
+class StressEvent(NamedTuple):
+    """A stressing event that ended (``TavaresModel(stress_log=True)``): unbroken, having damaged
+    the particle by eqs 5-6, or the one that broke it."""
+
+    particle_id: int  # Simulation.particle_ids of the particle (never reused)
+    specific_energy: float  # absorbed Ek'/m of the event [J/kg] (a breaking one: up to the break)
+    step: int  # step at which it was drained (the event ended at or before it)
+    broke: bool
+
+
 class TavaresModel(ParticleModel):
     """Tavares et al. 2021 breakage for the engine: loading work per stressing event vs a damaged
     fracture energy.
@@ -191,6 +278,9 @@ class TavaresModel(ParticleModel):
         materials: {material name: (gamma, e_min)}, the damage coefficient of eqs 5-6 and the
             smallest absorbed specific energy [J/kg] an event must reach to damage; materials not
             named never break.
+        stress_log: report every stressing event that ends (unbroken at or above e_min, or
+            broken) as a :class:`StressEvent` (``take_stress_log``). Off: the loop is the one
+            without it (other kernels, a compiled variant of its own when on).
 
     Per particle (``sim.breakage.<field>``): ``e_frac`` the (damaged) specific fracture energy
     [J/kg] (inf: never breaks; set by the caller), ``e_acc`` the energy absorbed in the current
@@ -209,7 +299,16 @@ class TavaresModel(ParticleModel):
     kernels = KERNELS
     event_columns = 6
 
-    def __init__(self, materials):
+    def __init__(self, materials, stress_log=False):
+        self.stress_log = bool(stress_log)
+        if self.stress_log:
+            self.name = "tavares_log"
+            self.kernels = LOG_KERNELS
+            self.event_columns = 7
+            self.particle_fields = {**TavaresModel.particle_fields,
+                                    "log_energy": ((np.float64, LOG_DEPTH), 0.0),
+                                    "log_count": (np.int64, 0)}
+        self.stress_rows = []  # drained StressEvents not yet taken
         self.materials = {}
         for name, (gamma, e_min) in dict(materials).items():
             self.materials[name] = (check_range(f"breakage[{name}].gamma", gamma, 0.0, lo_open=True),
@@ -233,10 +332,20 @@ class TavaresModel(ParticleModel):
         return self.table
 
     def bundle(self, fields):
+        if self.stress_log:
+            return TavaresLogBundle(self.table, fields.e_acc, fields.e_frac, fields.break_at_end,
+                                    fields.broke, fields.stress_dir, fields.log_energy,
+                                    fields.log_count)
         return TavaresBundle(self.table, fields.e_acc, fields.e_frac, fields.break_at_end,
                              fields.broke, fields.stress_dir)
 
     def records(self, rows):
+        if self.stress_log:  # the log's rows are kept (by particle id) for take_stress_log
+            stress = rows[:, 6] == ROW_STRESS
+            ids = self.sim.particle_ids
+            self.stress_rows += [StressEvent(int(ids[int(r[0])]), float(r[1]), int(r[2]),
+                                             bool(r[3])) for r in rows[stress]]
+            rows = rows[~stress]
         out = []
         for r in rows:
             d = r[3:6]
@@ -247,6 +356,23 @@ class TavaresModel(ParticleModel):
 
     def reset_events(self):
         self.e_acc[:] = 0.0
+
+    def take_stress_log(self):
+        """The ended stressing events since the last call (``stress_log``), in the order they
+        were drained (a particle's in the order they ended): those the loop handed over at its
+        stops (``Simulation.pop_events``, which the on_events handler calls, moves them here),
+        then those still held per particle."""
+        if not self.stress_log:
+            raise ValueError("take_stress_log: the model was made without stress_log")
+        ids, step = self.sim.particle_ids, self.sim.step
+        if (self.log_count > LOG_DEPTH).any():
+            raise RuntimeError("stress log: a particle ended more events than it holds")
+        for i in np.flatnonzero(self.log_count):
+            self.stress_rows += [StressEvent(int(ids[i]), float(e), step, False)
+                                 for e in self.log_energy[i, :self.log_count[i]]]
+        self.log_count[:] = 0
+        out, self.stress_rows = self.stress_rows, []
+        return out
 
     def reference_overlap(self, state):
         """Creation overlap of progeny pairs (0 for ordinary pairs), from contact-state rows."""
