@@ -40,8 +40,10 @@ class StressBook:
 
     def __init__(self, mat, ore, d_min, policy="standard"):
         self.mat, self.ore, self.d_min, self.policy = mat, ore, d_min, policy
-        self.size, self.energies, self.dead = {}, {}, set()
+        self.size, self.energies = {}, {}
+        self.dead = {}  # ids of the broken (dicts, not sets: a checkpoint stores dicts)
         self.start = None  # {id: (events before t_w, energy of the event in progress at t_w)}
+        self.dead_at_open = {}
         self.end = {}  # {id: energy of the event in progress at t_end}
         self.seen = -1  # largest particle id registered
 
@@ -65,7 +67,7 @@ class StressBook:
             if seq is not None:
                 seq.append(ev.specific_energy)
                 if ev.broke:
-                    self.dead.add(ev.particle_id)
+                    self.dead[ev.particle_id] = True
 
     def _in_progress(self, sim):
         ids, e_acc, inv_mass = sim.particle_ids, sim.breakage.e_acc, sim.particles.inv_mass
@@ -78,7 +80,7 @@ class StressBook:
         now = self._in_progress(sim)
         self.start = {pid: (len(seq), now.get(pid, 0.0)) for pid, seq in self.energies.items()
                       if pid not in self.dead}
-        self.dead_at_open = set(self.dead)
+        self.dead_at_open = dict(self.dead)
 
     def close(self, sim):
         """The end of the measured interval: drain the log, note the events in progress."""

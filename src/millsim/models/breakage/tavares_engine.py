@@ -40,8 +40,13 @@ TavaresBundle = namedtuple("TavaresBundle", ["table", "e_acc", "e_frac", "break_
 # With the stress log: per particle, the absorbed specific energies of its ended events not yet
 # drained (log_energy[i, :log_count[i]]).
 TavaresLogBundle = namedtuple("TavaresLogBundle", [*TavaresBundle._fields, "log_energy",
-                                                   "log_count"])
-LOG_DEPTH = 32  # events a particle holds before it stops the chunk to have them drained
+                                                   "log_count", "log_pending"])
+# Events a particle holds. Two short of it, it asks for a drain (log_pending): the next step's
+# pair pass stops the chunk before its particle pass, so that the chunk ends at a step boundary
+# like one that reached its length (a stop raised in the particle pass takes back the drift the
+# particles had begun, which changes the last bits of the trajectory). Only where no pair slot
+# is apart (no pair pass to see it) does a full log stop the chunk from the particle pass.
+LOG_DEPTH = 32
 # Event-table rows of the stress-log variant: a seventh column says which kind of row it is.
 ROW_BREAKAGE, ROW_STRESS = 0.0, 1.0
 
@@ -62,6 +67,17 @@ def _pair_apart(bs, state, k, base, o, col, step, i, j, radius, body, rsum, dist
     state[k, base + FPREV] = 0.0
     if dist2 >= rsum * rsum:
         state[k, base + REF] = 0.0
+
+
+def _pair_apart_log(bs, state, k, base, o, col, step, i, j, radius, body, rsum, dist2, seen,
+                    stop):
+    # _pair_apart, and a drain asked for stops the chunk before this step's particle pass
+    state[k, base + PREV] = seen
+    state[k, base + FPREV] = 0.0
+    if dist2 >= rsum * rsum:
+        state[k, base + REF] = 0.0
+    if bs.log_pending[0] != 0:
+        stop[0] = 1
 
 
 def _pair_loaded(bs, state, k, base, o, col, fn, xi, material_i, material_j):
@@ -170,6 +186,8 @@ def _particle_decide_log(bs, i, acc, inv_mass, material, stop):
                 if n < bs.log_energy.shape[1]:  # (a count beyond it is refused at the drain)
                     bs.log_energy[i, n] = specific
                 bs.log_count[i] = n + 1
+                if n + 3 >= bs.log_energy.shape[1]:
+                    bs.log_pending[0] = 1
                 if n + 1 >= bs.log_energy.shape[1]:
                     stop[0] = 1
             e_acc[i] = 0.0
@@ -216,6 +234,7 @@ def _collect_log(bs, events, n_events, out, col, start, nbr, inv_mass, step):
             row[3], row[4], row[5], row[6] = 0.0, 0.0, 0.0, ROW_STRESS
             n_events[0] += 1
         count[i] = 0
+    bs.log_pending[0] = 0
     for i in range(broke.shape[0]):
         if broke[i]:
             specific = bs.e_acc[i] * inv_mass[i]
@@ -247,7 +266,7 @@ KERNELS = NO_BREAKAGE._replace(
 # The stress-log variant (TavaresModel(stress_log=True)): its own loop, compiled only for a scene
 # that asks for it; the loop of every other scene is the one above.
 LOG_KERNELS = KERNELS._replace(
-    particle_decide=_kernel(_particle_decide_log),
+    pair_apart=_kernel(_pair_apart_log), particle_decide=_kernel(_particle_decide_log),
     collect=stable_identity(njit(cache=True)(_collect_log), "tavares._collect_log"))
 
 
@@ -309,6 +328,7 @@ class TavaresModel(ParticleModel):
                                     "log_energy": ((np.float64, LOG_DEPTH), 0.0),
                                     "log_count": (np.int64, 0)}
         self.stress_rows = []  # drained StressEvents not yet taken
+        self.log_pending = np.zeros(1, dtype=np.int64)  # a particle's log is nearly full
         self.materials = {}
         for name, (gamma, e_min) in dict(materials).items():
             self.materials[name] = (check_range(f"breakage[{name}].gamma", gamma, 0.0, lo_open=True),
@@ -335,7 +355,7 @@ class TavaresModel(ParticleModel):
         if self.stress_log:
             return TavaresLogBundle(self.table, fields.e_acc, fields.e_frac, fields.break_at_end,
                                     fields.broke, fields.stress_dir, fields.log_energy,
-                                    fields.log_count)
+                                    fields.log_count, self.log_pending)
         return TavaresBundle(self.table, fields.e_acc, fields.e_frac, fields.break_at_end,
                              fields.broke, fields.stress_dir)
 
@@ -371,6 +391,7 @@ class TavaresModel(ParticleModel):
             self.stress_rows += [StressEvent(int(ids[i]), float(e), step, False)
                                  for e in self.log_energy[i, :self.log_count[i]]]
         self.log_count[:] = 0
+        self.log_pending[0] = 0
         out, self.stress_rows = self.stress_rows, []
         return out
 
