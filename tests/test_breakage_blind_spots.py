@@ -263,42 +263,25 @@ def test_a_fragment_the_size_of_a_sieve_is_retained_on_it():
     np.testing.assert_allclose(table.passing([0.5, 0.6]), [0.75 * 75.0, 100.0], rtol=1e-15)
 
 
-@pytest.mark.parametrize("n_classes", [1, 2, 3])
+@pytest.mark.parametrize("n_classes", [2, 3])
 def test_families_of_few_classes_build_and_conserve_mass(n_classes):
-    """Every family_classes the materials file allows ([1, 20]) builds a table whose families
+    """Every family_classes the materials file allows ([2, 20]) builds a table whose families
     each fill the parent exactly, sum d^3 + n_dummy d_dummy^3 = 1, with probabilities summing
-    to 1."""
+    to 1, and whose mean reproduces eq 10's class fractions (fit_error is round-off)."""
     table = pf.generate_families(3.5, tv.TABLE1_AVERAGE, n_classes=n_classes)
     assert len(table.edges) == n_classes + 1
     assert table.probabilities.sum() == pytest.approx(1.0, rel=1e-12)
     for d, nd, dd in zip(table.diameters, table.dummy_counts, table.dummy_diameter):
         assert float(np.sum(d**3) + nd * dd**3) == pytest.approx(1.0, rel=1e-12)
+    edges = 2.0 ** (-np.arange(n_classes + 1) / 4)
+    p = tv.cumulative_passing(3.5, edges, tv.TABLE1_AVERAGE) / 100  # eq 10 at the class edges
+    np.testing.assert_allclose(table.fitted, [*(p[:-1] - p[1:]), p[-1]], atol=1e-6)
 
-@pytest.mark.xfail(strict=True, reason=(
-    "bug: with family_classes = 1 (the materials file allows [1, 20]) _close_family cannot close a "
-    "family holding the class-1 fragment (2^(-3/4) = 0.595 of the volume: the rest, 0.405, is "
-    "less than one dummy sphere of x_min = 0.841 (also 0.595) and just more than the fragment "
-    "may grow inside its class, (1 - 1e-6) x 0.405), so the only "
-    "family is one dummy sphere of the parent's own size: fit_error 0.34 at t10' = 3.5 %, and a "
-    "broken particle becomes an unbreakable copy of itself"))
-@pytest.mark.parametrize("policy", ["standard", "truncate"])
-def test_one_class_families_reproduce_their_targets_and_can_break_again(policy):
-    """family_classes = 1: a family is one class [2^(-1/4) d, d) plus dummies. The table's mean
-    must reproduce the class fractions of eq 10 (FamilyTable.fit_error is round-off above
-    t10' ~ 0.3 %), so some draws hold the resolved fragment, and with d_min = 0 that fragment may
-    break again while the dummies may not (Progeny.breakable, docs/tavares.md section 8)."""
-    import dataclasses
 
-    from millsim.models.breakage.progeny_placement import break_particle
-
-    table = pf.generate_families(3.5, tv.TABLE1_AVERAGE, n_classes=1)
-    edges = np.array([1.0, 2 ** -0.25])
-    p = tv.cumulative_passing(3.5, edges, tv.TABLE1_AVERAGE) / 100  # eq 10 at 1 and x_1
-    np.testing.assert_allclose(table.fitted, [p[0] - p[1], p[1]], atol=1e-6)
-    one = dataclasses.replace(ORE, family_classes=1)
-    seen = False
-    for u in np.linspace(0.0, 0.99, 12):
-        pr = break_particle(one, 0.02, 200.0, 100.0, (0, 0, 1), u, 0.3, d_min=0.0, policy=policy)
-        np.testing.assert_array_equal(pr.breakable, ~pr.dummy)
-        seen |= bool(pr.breakable.any())
-    assert seen
+def test_one_class_is_refused_where_it_would_make_a_broken_particle_its_own_copy():
+    """family_classes = 1 cannot close a family holding the class-1 fragment (2^(-3/4) = 0.595 of
+    the volume; the rest, 0.405, is less than one dummy sphere of x_min = 0.841, also 0.595), so
+    the only family would be one dummy the parent's size: a broken particle an unbreakable copy
+    of itself. The family builder refuses it (the materials file too: tests/test_materials_file.py)."""
+    with pytest.raises(ValueError, match="n_classes must be at least 2, got 1"):
+        pf.generate_families(3.5, tv.TABLE1_AVERAGE, n_classes=1)

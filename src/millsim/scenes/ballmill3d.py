@@ -66,9 +66,11 @@ from ..engine.spectra import SpectraBins
 from ..models import TavaresModel
 from ..models.breakage import progeny_families, tavares, tavares_materials
 from ..models.breakage.replacement import TavaresReplacement
+from ..models.breakage.tavares_log import TavaresLogModel
 from ..util.stats import block_mean_ci, mser5
 from . import ballmill3d_charge as charge
 from . import ballmill3d_observables as obs
+from . import ballmill3d_rates as rates
 from .base import (
     TIME_STEP_PARAMS,
     DriveMark,
@@ -102,6 +104,9 @@ PARAMS = (
     Param("materials_file", tavares_materials.MATERIALS_FILE,
           "Tavares materials and Table 6 contact parameters (docs/materials.md)"),
     Param("breakage", True, "Tavares breakage of the ore on/off"),
+    Param("stress_log", False, "log every stressing event of the ore and predict the breakage "
+          "per size class from it (eqs 1-6) beside the counted (needs breakage; its own compiled "
+          "loop)"),
     Param("spectra", True, "record collision energy spectra per contact type (engine.spectra)"),
     Param("spectra_min_energy", 1e-9, "lowest edge of the spectra's log-spaced energy bins", "J",
           0.0, lo_open=True),
@@ -152,6 +157,25 @@ def _spectra_on(values):
     return values["spectra"]
 
 
+def _log_on(values):
+    return values["breakage"] and values["stress_log"]
+
+
+# breakage predicted from the stress log against the counted (ballmill3d_rates)
+RATE_OUTPUTS = (
+    Output("breakage_events_predicted", ("size_class",), "1", "breakage events of particles in "
+           "the class over the measured interval expected from their logged stressing events",
+           "sum over particles of ln S(start) - ln S(end), S the survival of eqs 1-3, 5-6",
+           when=_log_on),
+    Output("breakage_events_counted", ("size_class",), "1", "breakage events of parents in the "
+           "class over the measured interval", when=_log_on),
+    Output("breakage_prediction_z", (), "1", "(counted - predicted) / sqrt(predicted), all "
+           "classes", when=_log_on),
+    Output("breakage_prediction_p_value", (), "1", "two-sided p-value of that z (normal law)",
+           when=_log_on),
+)
+
+
 # collision energy spectra over the measured interval (engine.spectra; docs/ballmill3d.md)
 SPECTRA_OUTPUTS = (
     Output("contact_type", ("contact_type",), "1", "contact type (liner: shell and end walls)",
@@ -199,6 +223,7 @@ class BallMill3DCase(Case):
         Output("record_time", ("record_time",), "s", "time of the PSD record since the drum "
                "started", coord=True),
         *SPECTRA_OUTPUTS,
+        *RATE_OUTPUTS,
         Output("power", (), "W", "mean drive power (shell + end walls), steady interval",
                "interval-mean power records after max(transient, MSER-5 start)"),
         Output("power_half_width", (), "W", "95 % half-width of the mean drive power",
@@ -268,7 +293,8 @@ class BallMill3DCase(Case):
             guards=Guards(max_overlap=v["max_overlap"]),
             spectra=SpectraBins(v["spectra_min_energy"], v["spectra_max_energy"],
                                 v["spectra_bins"]) if v["spectra"] else None,
-            breakage=TavaresModel({ore: (self.mat.gamma, self.mat.e_min)}) if v["breakage"] else None)
+            breakage=(TavaresLogModel if v["stress_log"] else TavaresModel)(
+                {ore: (self.mat.gamma, self.mat.e_min)}) if v["breakage"] else None)
         self.replace = TavaresReplacement({ore: self.mat}, d_min=self.d_min, seed=v["seed"],
                                           dummy_as="fines") if v["breakage"] else None
         self.shell_radius = 0.5 * D
@@ -286,6 +312,7 @@ class BallMill3DCase(Case):
         self.profile = np.zeros(obs.ANGLE_BINS)
         self.class_counts, self.passing = [], []
         self.event_times = []
+        self.book = None  # the stress log's books (ballmill3d_rates), with stress_log
 
     # ---- stages --------------------------------------------------------------------------------
     def chunk(self):
@@ -335,6 +362,11 @@ class BallMill3DCase(Case):
         self.ball_mass = float(masses[sim.free].sum()) - self.ore_mass0
         if self.replace is not None:
             self.replace.assign_fracture_energies(sim, np.flatnonzero(ore))
+            if v["stress_log"]:  # every ore particle is fresh from here on
+                sim.breakage.take_stress_log()
+                self.book = rates.StressBook(self.mat, sim.material_index(self.ore_name),
+                                             self.d_min)
+                self.book.register(sim)
         self.transient_end = v["transient_revolutions"] * self.period
         self.last = DriveMark(*obs.drive_state(sim), sim.time)
         self.total_records = int(round(v["revolutions"] * self.period / sim.dt
@@ -349,6 +381,9 @@ class BallMill3DCase(Case):
         """The start of the measured interval: energy book and spectra."""
         self.window = obs.energy_state(self.sim, self.removed)
         self.spectra_start = obs.spectra_state(self.sim) if self.v["spectra"] else None
+        self.t_window = self.mill_time()
+        if self.book is not None:
+            self.book.open(self.sim)
 
     def mill_time(self):
         return self.sim.time - self.t_mill
@@ -383,9 +418,16 @@ class BallMill3DCase(Case):
     def on_events(self, sim):
         """Replace the broken particles; book the energy the replacement removes and the fines'
         eq 11 spread."""
+        rows = sim.pop_events()  # (with stress_log, a stop may only have drained the log)
+        if self.book is not None:
+            self.book.add(sim.breakage.take_stress_log())
+        if not rows:
+            return
         before = len(self.replace.events)
         energy = sim.kinetic_energy() + obs.elastic_energy(sim)
-        self.replace(sim)
+        self.replace(sim, rows)
+        if self.book is not None:
+            self.book.register(sim)
         self.removed += energy - sim.kinetic_energy() - obs.elastic_energy(sim)
         for ev in self.replace.events[before:]:
             self.event_times.append(sim.time - self.t_mill)
@@ -422,13 +464,21 @@ class BallMill3DCase(Case):
             self.event_times, [ev.parent_diameter for ev in events], self.classes,
             self.transient_end, self.mill_time(), psd_t, np.array(self.class_counts),
             v["ci_blocks"])
+        predicted = {}
+        if self.book is not None:
+            self.book.close(sim)
+            pred, counted, z, p_value = rates.compare(
+                self.book, self.event_times, [ev.parent_diameter for ev in events], self.t_window,
+                self.classes)
+            predicted = dict(breakage_events_predicted=pred, breakage_events_counted=counted,
+                             breakage_prediction_z=z, breakage_prediction_p_value=p_value)
         spectra = {}
         if v["spectra"]:
             spectra = obs.spectra_outputs(self.spectra_start, obs.spectra_state(sim),
                                           sim.material_index(tavares_materials.DEVICE_MATERIAL),
                                           sim.material_index(self.ore_name))
         return {
-            **spectra,
+            **spectra, **predicted,
             "size_class": self.classes, "sieve": self.sieves, "record_time": psd_t,
             "power": p_mean, "power_half_width": p_half,
             "torque": float(torque[steady].mean()),

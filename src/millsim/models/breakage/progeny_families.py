@@ -221,6 +221,8 @@ def generate_families(t10, params=TABLE1_AVERAGE, n_classes=STANDARD_CLASSES, pe
     probabilities come from ``_fit_probabilities``. The RNG seed derives from the inputs, so a
     table is the same whenever and in whatever order it is built.
     """
+    if n_classes < 2:  # its one fragment leaves less than a dummy: the family is the parent
+        raise ValueError(f"families: n_classes must be at least 2, got {n_classes}")
     params = _params(params)
     edges, target = class_targets(t10, params, n_classes)
     if seed is None:

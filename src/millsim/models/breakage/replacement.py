@@ -126,8 +126,9 @@ class TavaresReplacement:
             u = self._uniform(STREAM_ENERGY, self._next_key())
             model.e_frac[i] = float(tavares.sample_fracture_energy(mat, d, np.array([u]))[0])
 
-    def __call__(self, sim):
-        rows = sim.pop_events()
+    def __call__(self, sim, rows=None):
+        """Replace the broken particles of ``rows`` (default: ``sim.pop_events()``)."""
+        rows = sim.pop_events() if rows is None else rows
         p, model = sim.particles, sim.breakage
         names = [m.name for m in sim.table.materials]
         broken = []

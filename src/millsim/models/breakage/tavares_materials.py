@@ -134,9 +134,11 @@ def _options(where, e):
     if "family_tn" in e:
         out["family_tn"] = _choice(f"{where}.family_tn", e["family_tn"], FAMILY_TN)
     if "family_classes" in e:
-        k = _num(f"{where}.family_classes", e["family_classes"], 1, 20, lo_open=False)
+        # one class cannot hold a family: its fragment (2^(-3/4) of the volume) leaves less than
+        # one dummy sphere, so the family would be the parent again (docs/tavares.md section 8)
+        k = _num(f"{where}.family_classes", e["family_classes"], 2, 20, lo_open=False)
         if not k.is_integer():
-            raise ValueError(f"{where}.family_classes: must be an integer in [1, 20], got {k:g}")
+            raise ValueError(f"{where}.family_classes: must be an integer in [2, 20], got {k:g}")
         out["family_classes"] = int(k)
     if "fines_lambda" in e:  # null: eq 12's slope from t4 and t75
         lam = e["fines_lambda"]
