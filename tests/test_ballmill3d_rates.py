@@ -10,22 +10,16 @@ of them only because earlier events weakened them (the same sequences without da
 model, and the counted breakage is a sample large enough for its interval.
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
+from test_ballmill3d import MATERIALS, SCENE
+from test_ballmill3d import SMALL as MILL
 
-from millsim.scenes import load_all
-from millsim.scenes.base import REGISTRY, RunContext
+from millsim.scenes.base import RunContext
 
-load_all()
-SCENE = REGISTRY["ballmill3d"]
-MATERIALS = Path(__file__).resolve().parents[1] / "config" / "materials.yaml"
-SMALL = dict(drum_diameter=0.1, drum_length=0.03, ball_diameter_min=0.012, ball_diameter_max=0.012,
-             ore_diameter_min=0.006, ore_diameter_max=0.006, filling=0.25, ball_ore_ratio=2.0,
-             d_min_ratio=0.21, pour_time=0.04, settle_time=0.05, revolutions=0.45,
-             transient_revolutions=0.0, records_per_revolution=20, liner="", breakage=True,
-             seed=1)
+# test_ballmill3d's small mill with the analytic shell, measured from its start, breakage on
+SMALL = dict(MILL, transient_revolutions=0.0, liner="", breakage=True, seed=1)
 
 
 @pytest.fixture(scope="module")
