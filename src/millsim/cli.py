@@ -395,7 +395,7 @@ def _report_parsers(sub):
     p = sub.add_parser("results-page", help="the markdown results page of a paper-scale study, "
                        "written from its aggregate: parameters, engine hash, cost, tables, figures")
     p.add_argument("study", choices=sorted(STUDIES), help="the study (its aggregate: ballmill.nc, "
-                   "bed_breakage.nc, tavares_verification.nc, stirred_mill.nc)")
+                   "ballmill3d.nc, bed_breakage.nc, tavares_verification.nc, stirred_mill.nc)")
     p.add_argument("aggregate", help="the study's aggregate (.nc)")
     p.add_argument("--figures", help="folder of the study's figures (NAME.png; linked relative "
                    "to the page)")

@@ -5,10 +5,15 @@
 #   snakemake paper_ballmill --cores 2 --configfile config/paper.yaml          (also bed_impact,
 #       single_particle)
 #   snakemake paper_stirred_mill --cores 2 --configfile config/paper.yaml config/ls1_power.yaml
-#   snakemake paper --cores 2 --configfile config/paper.yaml config/ls1_power.yaml   (all four)
+#   snakemake paper_ballmill3d --cores 2 --configfile config/paper.yaml \
+#       config/ballmill3d_lab_power.yaml
+#   snakemake paper --cores 2 --configfile config/paper.yaml config/ls1_power.yaml \
+#       config/ballmill3d_lab_power.yaml                                           (all five)
 #
 # The stirred mill's page is that of its power study only (aggregate and figures, not the
-# calibration); costs and publishing to docs/results: docs/pipeline.md, "Paper-scale studies".
+# calibration); the 3D ball mill's runs the 2-core cut of config/ballmill3d_lab_power.yaml (without
+# it, paper.yaml's 24 lab cases: 24-60 h on 2 cores). Costs and publishing to docs/results:
+# docs/pipeline.md, "Paper-scale studies".
 # Included after the scenes: it asks for their targets.
 
 
@@ -22,6 +27,11 @@ def _stirred_power_targets():
 # study -> (its config block, its aggregate, what the page needs: aggregate(s) and figures)
 PAGE_STUDIES = {
     "ballmill": ("ballmill", "results/aggregate/ballmill.nc", ballmill_targets),
+    "ballmill3d": (
+        "ballmill3d",
+        "results/aggregate/ballmill3d.nc",
+        lambda: ballmill3d_targets(),
+    ),
     "bed_impact": ("bed_impact", "results/aggregate/bed_breakage.nc", lambda: bed_impact_targets()),
     "single_particle": (
         "single_particle",
