@@ -61,6 +61,12 @@ G = 9.81  # [m s-2]
 SPEED, FILLING = "n_over_nc", "filling"
 PEAK_RANGE = (0.7, 0.9)  # fraction of critical speed where mill power peaks (the issue)
 FOLLOWED, NOT_FOLLOWED, NOT_TESTABLE = "followed", "not followed", "not testable here"
+# the rule of peak_claim in words, for the report and the results page alike
+_LO, _HI = PEAK_RANGE
+PEAK_RULE = (f"the highest power clear of its neighbours' 95 % intervals and the vertex of the "
+             f"parabola through the three in [{_LO:g}, {_HI:g}]; else not followed where the "
+             "intervals place the maximum outside, not testable where partly "
+             "(millsim.analysis.ballmill3d.peak_claim)")
 ENERGY_BALANCE_TOLERANCE = 0.02  # |residual| / drive work, the scene's check (issue 52, item 3)
 # per-record variables of a case, reduced to their first and last record (case_summary)
 RECORD_DIM = "record_time"

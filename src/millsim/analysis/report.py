@@ -225,10 +225,7 @@ def ballmill3d(path):
                          f"{_f(float(sub['power_reference_scale']))} fits the power)"))
         verdicts.append(dict(
             study="ballmill3d", check=f"drive power peaks at {lo:g}-{hi:g} of critical, J = {_f(j)}",
-            rule=f"the highest power clear of its neighbours' 95 % intervals and the vertex of "
-                 f"the parabola through the three in [{lo:g}, {hi:g}]; else FAIL where the "
-                 "intervals place the maximum outside, n/a where partly "
-                 "(millsim.analysis.ballmill3d.peak_claim)",
+            rule=bm3.PEAK_RULE,
             value=f"{NNC} = {_f(peak)}; {claim['reason']}",
             passed={bm3.FOLLOWED: True, bm3.NOT_FOLLOWED: False}.get(claim["verdict"])))
     err = ds["energy_balance_error"]

@@ -207,9 +207,7 @@ def _ballmill3d(ds):
                        f"critical (Hogg & Fuerstenau 1972; Morrell 1996b), J = {fmt(j)}",
                        f"vertex at n/n_c = {fmt(claim['vertex'])} (highest power at "
                        f"{fmt(claim['top'])}){model}; {claim['reason']}",
-                       "the highest power clear of its neighbours' 95 % intervals and the vertex "
-                       "in the range; else not followed where the intervals place the maximum "
-                       "outside it (analysis.ballmill3d.peak_claim)", claim["verdict"]])
+                       bm3.PEAK_RULE, claim["verdict"]])
     if shape["toe"] or shape["shoulder"]:
         spans = ", ".join(f"{name} {fmt(min(v), 3)} to {fmt(max(v), 3)} deg"
                           for name, v in shape.items() if v)
