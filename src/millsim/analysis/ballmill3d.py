@@ -68,6 +68,15 @@ PEAK_RULE = (f"the highest power clear of its neighbours' 95 % intervals and the
              "intervals place the maximum outside, not testable where partly "
              "(millsim.analysis.ballmill3d.peak_claim)")
 ENERGY_BALANCE_TOLERANCE = 0.02  # |residual| / drive work, the scene's check (issue 52, item 3)
+SPECTRA_AUDIT_TOLERANCE = 0.01  # |spectra - audit| / audit (issue 52, item 3)
+# the two energy books checked on every case, for the report and the results page alike:
+# variable -> (what it checks, tolerance, its name in this module)
+ENERGY_BOOKS = {
+    "energy_balance_error": ("drive work = dissipation + change of kinetic and potential energy",
+                             ENERGY_BALANCE_TOLERANCE, "ENERGY_BALANCE_TOLERANCE"),
+    "spectra_audit_error": ("collision energies of the spectra = the energy audit's dissipation",
+                            SPECTRA_AUDIT_TOLERANCE, "SPECTRA_AUDIT_TOLERANCE"),
+}
 # per-record variables of a case, reduced to their first and last record (case_summary)
 RECORD_DIM = "record_time"
 
@@ -194,6 +203,25 @@ def peak_claim(x, y, half_width, band=PEAK_RANGE):
         why = f"the highest power's interval ({x[k]:g}) overlaps that at {' and '.join(near)}"
     return out | {"verdict": NOT_TESTABLE,
                   "reason": f"{why}: the maximum lies in ({a:g}, {b:g}), partly outside {where}"}
+
+
+def book_check(ds: xr.Dataset, name: str) -> dict | None:
+    """One energy book of :data:`ENERGY_BOOKS` over every case of ``ds``: ``check`` (in words),
+    ``rule``, ``worst`` (the signed relative error of largest size), ``outside`` and ``cases``
+    (how many of how many finite ones miss the tolerance) and ``passed`` (None where no case has
+    a finite value); None where the aggregate lacks the variable."""
+    if name not in ds:
+        return None
+    check, tolerance, constant = ENERGY_BOOKS[name]
+    values = np.asarray(ds[name].values, float).ravel()
+    values = values[np.isfinite(values)]
+    rule = (f"relative error within +-{100 * tolerance:g} % in every case "
+            f"(millsim.analysis.ballmill3d.{constant})")
+    if not values.size:
+        return dict(check=check, rule=rule, worst=np.nan, outside=0, cases=0, passed=None)
+    outside = int((np.abs(values) > tolerance).sum())
+    return dict(check=check, rule=rule, worst=float(values[np.argmax(np.abs(values))]),
+                outside=outside, cases=int(values.size), passed=outside == 0)
 
 
 def case_summary(ds: xr.Dataset) -> xr.Dataset:

@@ -228,14 +228,14 @@ def ballmill3d(path):
             rule=bm3.PEAK_RULE,
             value=f"{NNC} = {_f(peak)}; {claim['reason']}",
             passed={bm3.FOLLOWED: True, bm3.NOT_FOLLOWED: False}.get(claim["verdict"])))
-    err = ds["energy_balance_error"]
-    worst = float(err.values.flat[int(np.nanargmax(np.abs(err.values)))])
-    tol = bm3.ENERGY_BALANCE_TOLERANCE
-    verdicts.append(dict(
-        study="ballmill3d", check="energy balance of every case",
-        rule=f"|drive work - dissipation - change of kinetic and potential energy| <= {100 * tol:g}"
-             " % of the work (millsim.analysis.ballmill3d.ENERGY_BALANCE_TOLERANCE)",
-        value=f"largest {_f(100 * worst, 2)} %", passed=bool(abs(worst) <= tol)))
+    for name, check in (("energy_balance_error", "energy balance of every case"),
+                        ("spectra_audit_error", "spectra vs energy audit of every case")):
+        book = bm3.book_check(ds, name)
+        if book is not None:
+            verdicts.append(dict(
+                study="ballmill3d", check=check, rule=f"{book['check']}: {book['rule']}",
+                value=f"largest {_f(100 * book['worst'], 2)} %; {book['outside']} of "
+                      f"{book['cases']} cases outside", passed=book["passed"]))
     return dict(title="Ball mill 3D (speed x filling; Morrell 1996)", key="ballmill3d",
                 headline=headline, verdicts=verdicts, numbers=dict(
                     speeds=ds["n_over_nc"].values.tolist(), fillings=ds["filling"].values.tolist(),

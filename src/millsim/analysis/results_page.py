@@ -208,6 +208,13 @@ def _ballmill3d(ds):
                        f"vertex at n/n_c = {fmt(claim['vertex'])} (highest power at "
                        f"{fmt(claim['top'])}){model}; {claim['reason']}",
                        bm3.PEAK_RULE, claim["verdict"]])
+    for name in bm3.ENERGY_BOOKS:
+        book = bm3.book_check(ds, name)
+        if book is not None:
+            claims.append([f"{book['check']} (issue 52, item 3)",
+                           f"largest {fmt(100 * book['worst'], 2)} %; {book['outside']} of "
+                           f"{book['cases']} cases outside", book["rule"],
+                           {True: "PASS", False: "FAIL"}.get(book["passed"], "n/a")])
     if shape["toe"] or shape["shoulder"]:
         spans = ", ".join(f"{name} {fmt(min(v), 3)} to {fmt(max(v), 3)} deg"
                           for name, v in shape.items() if v)
