@@ -23,3 +23,6 @@ done
 run bed_impact --set rings=2 --set layers=3 --out "$OUT/bed.nc"
 run ballmill2d --set duration=0.3 --set transient=0.1 --out "$OUT/bm.nc"
 run collision --set restitution=0.4 --out "$OUT/coll.nc"
+run ballmill3d --set drum_diameter=0.15 --set drum_length=0.05 --set stiffness_scale=1e-4 \
+    --set d_min_ratio=0.2 --set pour_time=0.1 --set settle_time=0.1 --set revolutions=0.5 \
+    --set transient_revolutions=0.2 --set liner= --out "$OUT/bm3d.nc"

@@ -5,9 +5,10 @@ spectra"). The compiled half is :mod:`millsim.engine.loop.spectra`.
 
 A collision is a contact from the step it starts touching to the step it is found apart; its
 energies are the energy audit's contact terms over that time (normal: the dashpot; tangential:
-the tangential force against the slip of the centres and of the surfaces' rotation, rolling
-friction included). Contact types: pairs by their two materials (a, b), a <= b; walls (analytic
-and mesh) by (particle material, wall or triangle material), in a table of their own.
+the tangential force against the slip of the centres and of the surfaces' rotation; rolling
+friction is the audit's own term, booked per particle). Contact types: pairs by their two
+materials (a, b), a <= b; walls (analytic and mesh) by (particle material, wall or triangle
+material), in a table of their own.
 """
 
 import math

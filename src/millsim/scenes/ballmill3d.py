@@ -187,8 +187,8 @@ SPECTRA_OUTPUTS = (
     Output("impact_rate_normal", ("contact_type", "energy_bin"), "s-1", "collisions per second "
            "by the normal energy each dissipated (damping), per bin", when=_spectra_on),
     Output("impact_rate_tangential", ("contact_type", "energy_bin"), "s-1", "collisions per "
-           "second by the tangential energy each dissipated (friction, tangential damping, "
-           "rolling friction), per bin", when=_spectra_on),
+           "second by the tangential energy each dissipated (friction, tangential damping; "
+           "rolling friction is booked per particle), per bin", when=_spectra_on),
     Output("collision_rate", ("contact_type",), "s-1", "collisions per second (every energy)",
            when=_spectra_on),
     Output("collision_rate_below_range", ("contact_type",), "s-1", "collisions per second whose "

@@ -5,10 +5,14 @@ from dataclasses import dataclass
 BLOCK = 256  # particles per reduction block (fixed, so sums do not depend on the thread count)
 SLOT_BASE = 8  # slot record: force on i (3), n x F_t (3), overlap, normal force
 # Energy audit terms [J]: contact normal damping, tangential force x centre slip, tangential force x
-# rotational slip (+ rolling friction), lubrication normal (squeeze), lubrication tangential.
-N_AUDIT = 5
+# rotational slip, lubrication normal (squeeze), lubrication tangential, rolling friction. A slot
+# record carries the first SLOT_AUDIT; rolling friction is booked per particle (particles.py).
+N_AUDIT = 6
+SLOT_AUDIT = 5
+ROLLING_AUDIT = 5  # the rolling-friction term's index
 AUDIT_TERMS = ("contact_normal_damping", "contact_tangential_translation",
-               "contact_tangential_rotation", "lubrication_normal", "lubrication_tangential")
+               "contact_tangential_rotation", "lubrication_normal", "lubrication_tangential",
+               "rolling_friction")
 # Guard codes written to err[0]; err = [code, step, particle, partner]. With threads the particle
 # recorded is whichever got there first; the Python side names a deterministic one.
 # ERR_MESH_SLOTS: a particle touches more mesh triangles at once than it has history slots.
@@ -60,7 +64,7 @@ class Layout:
 
     @property
     def slot_spectra(self):
-        return self.slot_audit + (N_AUDIT if self.audit else 0)
+        return self.slot_audit + (SLOT_AUDIT if self.audit else 0)
 
     @property
     def slot_width(self):

@@ -294,10 +294,7 @@ def pair_places_kernel(spec, law, brk, flu, layout, contact, geometry):
                 for a in range(3):
                     proll[k, 0, a] = -mr * ri * w[i, a] / wi if wi > 0.0 else 0.0
                     proll[k, 1, a] = -mr * rj * w[j, a] / wj if wj > 0.0 else 0.0
-                if AUDIT:
-                    o[COL_AUD + 2] -= (proll[k, 0, 0] * w[i, 0] + proll[k, 0, 1] * w[i, 1]
-                                       + proll[k, 0, 2] * w[i, 2] + proll[k, 1, 0] * w[j, 0]
-                                       + proll[k, 1, 1] * w[j, 1] + proll[k, 1, 2] * w[j, 2])
+                # (its power is booked per particle, after the kick: gather, particle_block)
             if SPECTRA:  # this contact's share of the audit's powers, over its lifetime
                 state[k, SP] = 1.0
                 spectra_step(state[k], SP, o[COL_AUD], o[COL_AUD + 1] + o[COL_AUD + 2], dt,

@@ -25,7 +25,7 @@ from ..kinematics import (
 )
 from ..mesh import MESH_SLOTS, SAME_CONTACT_COS, TAG_COLUMNS, owns, rotate, triangle_contact
 from ..walls import SKIP_WHEN_FAR, wall_contact, wall_contact_bounded
-from .layout import BLOCK, ERR_MESH_SLOTS, ERR_OVERLAP
+from .layout import BLOCK, ERR_MESH_SLOTS, ERR_OVERLAP, ROLLING_AUDIT
 from .spectra import forgotten, spectra_close_wall, spectra_step
 
 
@@ -65,12 +65,10 @@ def wall_force_kernel(spec, layout, contact):
                 c0 -= m * w[i, 0]
                 c1 -= m * w[i, 1]
                 c2 -= m * w[i, 2]
-                if AUDIT:
-                    audit_part[blk, 2] += m * wn * wn
-        if SPECTRA:  # collision spectra: this contact's share of the audit's powers
+                if AUDIT:  # at the spin the torque saw; particle_block moves it to the kick's
+                    audit_part[blk, ROLLING_AUDIT] += m * wn * wn
+        if SPECTRA:  # collision spectra: this contact's share of the audit's contact powers
             pt = -(f0 * vr0 + f1 * vr1 + f2 * vr2)  # centre and rotational slip together
-            if ROLLING:
-                pt += mr * ri * math.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
             spectra_step(hist[k], SPW, -(fn - fn_el) * (vr0 * n0 + vr1 * n1 + vr2 * n2), pt, dt,
                          forgotten(audit_part))
         return fn, g0, g1, g2, c0, c1, c2, ai
