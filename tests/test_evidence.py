@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -38,7 +39,7 @@ def test_evidence_lists_the_stale_page_with_its_section_and_counts_the_current(t
            if physics_files.repository() is not None
            else "another engine (no git history here to compare its files)")
     assert old["stale"] == [dict(line=6, section="Quick study", engine=STALE_HASH, old=False,
-                                 why=why)]
+                                 current=False, why=why)]
     # the command: a count line first, then the pages that are not current
     assert main(["evidence", "--docs", str(folder), "--json", str(tmp_path / "e.json")]) == 0
     out = capsys.readouterr().out.splitlines()
@@ -233,3 +234,196 @@ for scene in sys.argv[2:]:
             rel = physics_files._module_file(module, physics_files.PACKAGE)
             rel = rel.relative_to(physics_files.PACKAGE).as_posix()
             assert rel not in physics or rel in files, (scene, rel)
+
+
+# --- the registry of identity checks: engine changes verified bit-identical for some scenes ---
+
+
+def _commit(repo, package, edits, message):
+    """Write ``edits`` ({path in the package: text}), commit them, and return the new hash."""
+    for name, text in edits.items():
+        (package / name).write_text(text)
+    _git(repo, "commit", "-q", "-am", message)
+    return _today(package)
+
+
+def _entry(old, new, identical, differs=None, date="2026-12-02"):
+    text = (f"- old: {old!r}\n  new: {new!r}\n  date: {date}\n  command: \"tools/x.sh\"\n"
+            f"  identical: [{', '.join(identical)}]\n  why: \"a bookkeeping change\"\n")
+    if differs:
+        text += f"  differs: {{{', '.join(f'{k}: [{v}]' for k, v in differs.items())}}}\n"
+    return text
+
+
+def _judged(docs, today, package, registry=None):
+    """{page name: (status, [why of each hash not listed as kept for comparison])}."""
+    path = docs / evidence.REGISTRY
+    if registry is None:
+        path.unlink(missing_ok=True)
+    else:
+        path.write_text(registry)
+    result = evidence.evidence(docs, today, package)
+    return {p["page"].rsplit("/", 1)[1]: (p["status"], [s["why"] for s in p["stale"]])
+            for p in result["pages"]}
+
+
+@pytest.fixture
+def toy(tmp_path, monkeypatch):
+    """The toy repository (its first commit's hash as ``first``) and a folder for pages; the
+    commit-hash cache kept inside tmp_path."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    repo = tmp_path / "repo"
+    package = _toy_repository(repo)
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    return repo, package, docs, _today(package)
+
+
+def test_an_identity_check_makes_the_pages_of_its_identical_scenes_current(toy):
+    repo, package, docs, first = toy
+    for name in ("one", "two"):
+        (docs / f"{name}.md").write_text(f"Physics: scene `{name}`\n\nengine {first}: 1.5 W\n")
+    (docs / "whole.md").write_text(f"engine {first}: 3.5 W\n")
+    # the engine core both scenes import changes (not committed: today's tree is the new engine)
+    (package / "engine" / "core.py").write_text("STEP = 1.0\nBOOK = 0\n")
+    today = _today(package)
+    changed = (evidence.STALE, [f"since {_rev(repo)}: engine/core.py changed"])
+    assert _judged(docs, today, package) == {"one.md": changed, "two.md": changed, "whole.md": (
+        evidence.STALE, ["another engine (the page names no scenes: judged by the whole hash)"])}
+    # an entry naming scene one only: its page current, with the check it went through; scene
+    # two (not in `identical`) and the page without scenes stay stale
+    got = _judged(docs, today, package, _entry(first, today, ["one"]))
+    assert got["one.md"] == (evidence.CURRENT, [
+        f"current through the identity check of 2026-12-02 ({first} -> {today})"])
+    assert got["two.md"][0] == evidence.STALE and got["whole.md"][0] == evidence.STALE
+    # a scene whose variables moved (`differs`) is not covered by the entry
+    got = _judged(docs, today, package, _entry(first, today, ["two"], {"one": "energy_book"}))
+    assert got["one.md"][0] == evidence.STALE and got["two.md"][0] == evidence.CURRENT
+    # a page naming both scenes needs both in `identical`
+    (docs / "both.md").write_text(f"Physics: scenes `one`, `two`\n\nengine {first}: 1 W\n")
+    assert _judged(docs, today, package, _entry(first, today, ["one"]))["both.md"][0] == \
+        evidence.STALE
+    assert _judged(docs, today, package, _entry(first, today, ["two", "one"]))["both.md"][0] == \
+        evidence.CURRENT
+
+
+def _rev(repo):
+    return subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"], capture_output=True,
+                          text=True, check=True).stdout.strip()[:10]
+
+
+def test_identity_checks_chain_and_a_loop_of_them_ends(toy):
+    repo, package, docs, first = toy
+    second = _commit(repo, package, {"engine/core.py": "STEP = 1.0\nA = 0\n"}, "book a")
+    third = _commit(repo, package, {"engine/core.py": "STEP = 1.0\nA = 0\nB = 0\n"}, "book b")
+    assert len({first, second, third}) == 3
+    (docs / "one.md").write_text(f"Physics: scene `one`\n\nengine {first}: 1.5 W\n")
+    a, b = _entry(first, second, ["one"]), _entry(second, third, ["one"], date="2026-12-03")
+    assert _judged(docs, third, package, a)["one.md"][0] == evidence.STALE  # second is not today
+    assert _judged(docs, third, package, a + b)["one.md"] == (evidence.CURRENT, [
+        f"current through the identity checks of 2026-12-02 ({first} -> {second}), "
+        f"2026-12-03 ({second} -> {third})"])
+    # first -> second -> first never reaches today: stale, and the judge returns
+    loop = a + _entry(second, first, ["one"])
+    assert _judged(docs, third, package, loop)["one.md"][0] == evidence.STALE
+
+
+def test_a_hash_before_the_checks_old_engine_counts_only_with_the_same_scene_files(toy):
+    """H older than the entry's O: current when H's commit has O's content in the scene's files
+    (a change between them elsewhere), stale when it differs there."""
+    repo, package, docs, first = toy
+    # between H (first) and O: a model that only scene two imports
+    old = _commit(repo, package, {"models/extra.py": "K = 3\n"}, "model")
+    assert physics_files.changed_between(physics_files.History(repo), "HEAD~1", "HEAD",
+                                         ["models/extra.py", "engine/core.py"]) == \
+        ["models/extra.py"]
+    new = _commit(repo, package, {"engine/core.py": "STEP = 1.0\nBOOK = 0\n"}, "book")
+    for name in ("one", "two"):
+        (docs / f"{name}.md").write_text(f"Physics: scene `{name}`\n\nengine {first}: 1.5 W\n")
+    got = _judged(docs, new, package, _entry(old, new, ["one", "two"]))
+    assert got["one.md"] == (evidence.CURRENT, [
+        f"current through the identity check of 2026-12-02 ({old} -> {new})"])
+    assert got["two.md"][0] == evidence.STALE  # models/extra.py differs between H and O
+
+
+def test_a_file_only_the_old_scene_imported_still_counts_between_h_and_o(toy):
+    """H and O both import a model that today's scene no longer imports: a change of that model
+    between H and O is a change of H's numbers, though no file of today's set differs."""
+    repo, package, docs, _ = toy
+    one = "from ..engine import core\nfrom ..models import extra\n"
+    first = _commit(repo, package, {"scenes/one.py": one}, "one uses the model")
+    old = _commit(repo, package, {"models/extra.py": "K = 3\n"}, "model")
+    new = _commit(repo, package, {"scenes/one.py": "from ..engine import core\n"}, "no model")
+    history = physics_files.History(repo)
+    assert physics_files.scene_files_at(history, "HEAD~1", ["one"]) == [
+        "engine/__init__.py", "engine/core.py", "models/__init__.py", "models/extra.py",
+        "scenes/__init__.py", "scenes/one.py"]
+    history.close()
+    assert "models/extra.py" not in physics_files.scene_files(["one"], package)
+    (docs / "one.md").write_text(f"Physics: scene `one`\n\nengine {first}: 1.5 W\n")
+    assert _judged(docs, new, package, _entry(old, new, ["one"]))["one.md"][0] == evidence.STALE
+    # the same page with O's hash itself: current through the check
+    (docs / "one.md").write_text(f"Physics: scene `one`\n\nengine {old}: 1.5 W\n")
+    assert _judged(docs, new, package, _entry(old, new, ["one"]))["one.md"][0] == evidence.CURRENT
+
+
+def test_an_entry_whose_engine_no_commit_has_does_not_apply_and_is_said_once(toy, capsys):
+    repo, package, docs, first = toy
+    (package / "engine" / "core.py").write_text("STEP = 1.0\nBOOK = 0\n")
+    today = _today(package)
+    for name in ("a", "b"):
+        (docs / f"{name}.md").write_text(f"Physics: scene `one`\n\nengine {first}: 1.5 W\n")
+    (docs / evidence.REGISTRY).write_text(_entry(STALE_HASH, today, ["one"]))
+    result = evidence.evidence(docs, today, package)
+    assert result["stale"] == 2
+    assert result["registry_notes"] == [
+        f"{(docs / evidence.REGISTRY).as_posix()}: identity check of 2026-12-02 ({STALE_HASH} "
+        f"-> {today}) does not apply: no commit of this repository's history has engine "
+        f"{STALE_HASH}"]
+    out = "\n".join(evidence.lines(result))
+    assert out.count("does not apply") == 1
+
+
+GOOD = dict(old="'aaaaaaaaaaaa'", new="'bbbbbbbbbbbb'", date="2026-12-02", command="x",
+            identical="[one]", why="w")
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(why=None), r"entry 2 \(aaaaaaaaaaaa -> bbbbbbbbbbbb\): missing key 'why'"),
+    (dict(identical="[one, three]"), r"entry 2 .*: scene 'three': no module millsim.scenes.three"),
+    (dict(differs="{nowhere: [x]}"), r"entry 2 .*: scene 'nowhere'"),
+    (dict(new="'bbbbbbbbbbbz'"), r"entry 2 .*: new: 'bbbbbbbbbbbz' is not an engine hash"),
+    (dict(old="'aaaa'"), r"entry 2 .*: old: 'aaaa' is not an engine hash"),
+    # twelve digits unquoted: YAML reads a number, which is refused rather than guessed at
+    (dict(old="123456789012"), r"entry 2 .*: old: 123456789012 is not an engine hash"),
+    (dict(differs="{one: [x]}"), r"entry 2 .*: scene 'one' both identical and differing"),
+    (dict(date="yesterday"), r"entry 2 .*: date: 'yesterday' is not a date"),
+    (dict(identicl="[one]"), r"entry 2 .*: unknown key 'identicl'"),
+])
+def test_a_malformed_registry_entry_is_refused_in_one_line_naming_file_and_entry(
+        toy, capsys, change, message):
+    _, package, docs, first = toy
+    (docs / "p.md").write_text(f"Physics: scene `one`\n\nengine {first}\n")
+    good = "- " + "\n  ".join(f"{k}: {v}" for k, v in GOOD.items()) + "\n"
+    bad = {**GOOD, **change}
+    path = docs / evidence.REGISTRY
+    path.write_text(good + "- " + "\n  ".join(f"{k}: {v}" for k, v in bad.items()
+                                               if v is not None) + "\n")
+    with pytest.raises(ValueError, match=re.escape(str(path)) + ": " + message) as caught:
+        evidence.evidence(docs, first, package)
+    assert "\n" not in str(caught.value)
+    # the well-formed first entry alone is read
+    path.write_text(good)
+    assert [e["old"] for e in evidence.read_registry(path, package)] == ["aaaaaaaaaaaa"]
+
+
+def test_the_repositorys_registry_is_read_and_well_formed():
+    """docs/results/engine_identity.yaml parses against today's scenes (a typo there would make
+    `millsim evidence` refuse the folder)."""
+    path = physics_files.PACKAGE.parents[1] / "docs" / "results" / evidence.REGISTRY
+    if not path.is_file():
+        pytest.skip("no docs/results here (an installed copy)")
+    from millsim.scenes import SCENE_MODULES
+
+    entries = evidence.read_registry(path)
+    assert entries and all(set(e["identical"]) <= set(SCENE_MODULES) for e in entries)

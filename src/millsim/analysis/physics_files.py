@@ -58,11 +58,17 @@ def _imports(path, root):
 
 @lru_cache(maxsize=4096)
 def _parsed_imports(path, root, mtime_ns, size):
-    rel = path.relative_to(root.parent).with_suffix("")
-    name = list(rel.parts[:-1]) if rel.name == "__init__" else list(rel.parts)
-    package = name if path.name == "__init__.py" else name[:-1]
+    return _import_names(path.read_text(), path.relative_to(root).as_posix())
+
+
+def _import_names(text, rel):
+    """The millsim modules imported by the source ``text`` of the package file ``rel`` (posix,
+    relative to the package)."""
+    parts = ["millsim", *PurePosixPath(rel).with_suffix("").parts]
+    name = parts[:-1] if parts[-1] == "__init__" else parts
+    package = name if rel.endswith("__init__.py") else name[:-1]
     found = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(ast.parse(text, rel)):
         if isinstance(node, ast.Import):
             found |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom):
@@ -72,25 +78,54 @@ def _parsed_imports(path, root, mtime_ns, size):
     return {m for m in found if m.split(".")[0] == "millsim"}
 
 
-def scene_files(scenes, root=PACKAGE):
-    """The physics sources (paths relative to ``root``) that the scene modules ``scenes`` import,
-    themselves and their packages' ``__init__`` included."""
-    physics = set(physics_paths(root))
+def has_scene(scene, root=PACKAGE):
+    """Whether ``root`` has the scene module ``millsim.scenes.<scene>``."""
+    return _module_file(f"millsim.scenes.{scene}", root) is not None
+
+
+def _follow(scenes, module_file, imports, physics):
+    """The files of ``physics`` that the scene modules import, followed statically:
+    ``module_file(module)`` -> its file or None, ``imports(file)`` -> the modules it imports."""
     todo = [f"millsim.scenes.{scene}" for scene in scenes]
     for module in todo:
-        if _module_file(module, root) is None:
+        if module_file(module) is None:
             raise ValueError(f"scene {module.rpartition('.')[2]!r}: no module {module}")
     seen = set()
     while todo:
         module = todo.pop()
-        path = _module_file(module, root)
+        path = module_file(module)
         if path is None or path in seen:
             continue
         seen.add(path)
         parts = module.split(".")
         todo += [".".join(parts[:i]) for i in range(2, len(parts))]
-        todo += sorted(_imports(path, root))
+        todo += sorted(imports(path))
+    return seen
+
+
+def scene_files(scenes, root=PACKAGE):
+    """The physics sources (paths relative to ``root``) that the scene modules ``scenes`` import,
+    themselves and their packages' ``__init__`` included."""
+    physics = set(physics_paths(root))
+    seen = _follow(scenes, lambda m: _module_file(m, root), lambda p: _imports(p, root), physics)
     return sorted(p for p in (s.relative_to(root).as_posix() for s in seen) if p in physics)
+
+
+def scene_files_at(history, commit, scenes):
+    """:func:`scene_files` of the package as ``commit`` has it (read from git's objects)."""
+    files = history.tree(commit)
+    parts = _parts(history.blob(files["__init__.py"])) if "__init__.py" in files else None
+    physics = set(millsim.physics_order(files, parts or millsim.PHYSICS_SOURCES))
+
+    def module_file(module):
+        base = "/".join(module.split(".")[1:])
+        return next((c for c in (f"{base}/__init__.py", f"{base}.py") if base and c in files),
+                    None)
+
+    def imports(path):
+        return _import_names(history.blob(files[path]).decode(), path)
+
+    return sorted(p for p in _follow(scenes, module_file, imports, physics) if p in physics)
 
 
 def blob_id(data):
@@ -214,3 +249,10 @@ def changed_since(history, commit, paths, root=PACKAGE):
         if then.get(path) != now:
             changed.append(path)
     return changed
+
+
+def changed_between(history, a, b, paths):
+    """Of ``paths`` (relative to the package), those whose content differs between the commits
+    ``a`` and ``b`` (absent on one side counts as differing)."""
+    first, second = history.tree(a), history.tree(b)
+    return [path for path in paths if first.get(path) != second.get(path)]
