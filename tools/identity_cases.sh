@@ -3,12 +3,13 @@
 #   git worktree add /tmp/old <commit>
 #   tools/identity_cases.sh /tmp/old /tmp/ident/old && tools/identity_cases.sh . /tmp/ident/new
 #   python tools/compare_cases.py /tmp/ident/old /tmp/ident/new
-# (~3-4 min per tree on 2 cores with empty kernel caches; wall times always differ.)
+# (~3-4 min per tree on 2 cores with empty kernel caches; wall times always differ. THREADS=1
+# where the cores are busy: the numbers do not depend on the thread count.)
 set -euo pipefail
 TREE=$(cd "$1" && pwd); OUT=$2
 mkdir -p "$OUT"
 PY=${PYTHON:-$(dirname "$0")/../.venv/bin/python}
-run() { PYTHONPATH="$TREE/src" "$PY" -m millsim.cli run --quiet --threads 2 "$@"; }
+run() { PYTHONPATH="$TREE/src" "$PY" -m millsim.cli run --quiet --threads "${THREADS:-2}" "$@"; }
 run single_particle --set mode=drop_weight --set n_particles=10 --out "$OUT/sp.nc"
 run single_particle --set n_particles=10 --out "$OUT/sp1.nc"
 run packing --set n=500 --set settle_steps=2000 --set steps=2000 --out "$OUT/box.nc"
