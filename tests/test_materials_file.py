@@ -5,6 +5,7 @@ The table checks need no simulation; one user ore runs through `millsim run sing
 """
 
 import copy
+import math
 from pathlib import Path
 
 import pytest
@@ -212,3 +213,22 @@ def test_user_ore_runs_through_single_particle(tmp_path):
     assert p_mine < 0.01 < 0.4 < float(pred.breakage_probability(copper, d, energy,
                                                                   pred.absorbed_share(copper)))
     assert int(ds["n_broken"]) == 0
+
+
+# The closed upper ends of docs/materials.md's ranges (restitution (0, 1], sigma (0, 10],
+# family_classes [2, 20]): the bound itself is a valid input, the next float above it is not
+# (sampled mutant tavares_materials:72:52, `x > hi` -> `x >= hi`, refused the bound and no
+# test saw it).
+CLOSED_TOP = [(("contacts", "particle_particle", "restitution"), 1.0),
+              (("materials", "copper_ore", "sigma"), 10.0),
+              (("model", "family_classes"), 20)]
+
+
+@pytest.mark.parametrize("keys, top", CLOSED_TOP, ids=[k[-1] for k, _ in CLOSED_TOP])
+def test_a_closed_upper_bound_is_accepted_and_just_past_it_refused(tmp_path, keys, top):
+    path = tmp_path / "m.yaml"
+    path.write_text(edited(keys, top))
+    tavares_materials.check_materials_file(path)
+    path.write_text(edited(keys, math.nextafter(float(top), math.inf)))
+    with pytest.raises(ValueError, match="is outside the allowed range|must be an integer"):
+        tavares_materials.check_materials_file(path)
