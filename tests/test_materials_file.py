@@ -232,3 +232,16 @@ def test_a_closed_upper_bound_is_accepted_and_just_past_it_refused(tmp_path, key
     path.write_text(edited(keys, math.nextafter(float(top), math.inf)))
     with pytest.raises(ValueError, match="is outside the allowed range|must be an integer"):
         tavares_materials.check_materials_file(path)
+
+
+def test_the_default_materials_file_is_found_from_any_working_directory(tmp_path, monkeypatch):
+    """The default path is relative to the repository ("config/materials.yaml"): a run started
+    elsewhere (a Snakemake job's directory, a notebook) reads the shipped file, the same
+    materials as from the root (sampled mutant tavares_materials:270:15, which looked one
+    directory too high, passed every test run from the root)."""
+    from_root = tavares_materials.load_materials()
+    monkeypatch.chdir(tmp_path)
+    assert not (tmp_path / tavares_materials.MATERIALS_FILE).exists()
+    elsewhere = tavares_materials.load_materials()
+    assert sorted(elsewhere) == sorted(from_root) == sorted(GOOD["materials"])
+    assert elsewhere["copper_ore"].density == GOOD["materials"]["copper_ore"]["density_kg_m3"]
