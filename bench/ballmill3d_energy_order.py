@@ -30,7 +30,6 @@ from millsim.scenes.base import get_scene
 LAB = dict(drum_diameter=0.3, drum_length=0.1, filling=0.3, n_over_nc=1.0,
            stiffness_scale=1e-4, d_min_ratio=0.2, breakage=True, seed=1, liner="",
            revolutions=1e3, transient_revolutions=0.0)
-BOOKS = ("kinetic", "potential", "elastic")
 
 
 def prepared(threads, transient):

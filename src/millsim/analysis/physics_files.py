@@ -83,8 +83,8 @@ def has_scene(scene, root=PACKAGE):
     return _module_file(f"millsim.scenes.{scene}", root) is not None
 
 
-def _follow(scenes, module_file, imports, physics):
-    """The files of ``physics`` that the scene modules import, followed statically:
+def _follow(scenes, module_file, imports):
+    """The files that the scene modules import (themselves included), followed statically:
     ``module_file(module)`` -> its file or None, ``imports(file)`` -> the modules it imports."""
     todo = [f"millsim.scenes.{scene}" for scene in scenes]
     for module in todo:
@@ -107,15 +107,14 @@ def scene_files(scenes, root=PACKAGE):
     """The physics sources (paths relative to ``root``) that the scene modules ``scenes`` import,
     themselves and their packages' ``__init__`` included."""
     physics = set(physics_paths(root))
-    seen = _follow(scenes, lambda m: _module_file(m, root), lambda p: _imports(p, root), physics)
+    seen = _follow(scenes, lambda m: _module_file(m, root), lambda p: _imports(p, root))
     return sorted(p for p in (s.relative_to(root).as_posix() for s in seen) if p in physics)
 
 
 def scene_files_at(history, commit, scenes):
     """:func:`scene_files` of the package as ``commit`` has it (read from git's objects)."""
     files = history.tree(commit)
-    parts = _parts(history.blob(files["__init__.py"])) if "__init__.py" in files else None
-    physics = set(millsim.physics_order(files, parts or millsim.PHYSICS_SOURCES))
+    physics = set(history.physics_order(commit))
 
     def module_file(module):
         base = "/".join(module.split(".")[1:])
@@ -125,7 +124,7 @@ def scene_files_at(history, commit, scenes):
     def imports(path):
         return _import_names(history.blob(files[path]).decode(), path)
 
-    return sorted(p for p in _follow(scenes, module_file, imports, physics) if p in physics)
+    return sorted(p for p in _follow(scenes, module_file, imports) if p in physics)
 
 
 def blob_id(data):
@@ -169,12 +168,18 @@ class History:
             self._cat.stdout.read(1)
         return self._blobs[oid]
 
+    def physics_order(self, commit):
+        """The physics sources of ``commit`` in ``millsim.provenance_hash()``'s order (its own
+        ``PHYSICS_SOURCES``)."""
+        files = self.tree(commit)
+        parts = _parts(self.blob(files["__init__.py"])) if "__init__.py" in files else None
+        return millsim.physics_order(files, parts or millsim.PHYSICS_SOURCES)
+
     def commit_hash(self, commit):
         """The engine hash ``commit`` recorded: its ``PHYSICS_SOURCES`` hashed as
         ``millsim.provenance_hash()`` does."""
         files = self.tree(commit)
-        parts = _parts(self.blob(files["__init__.py"])) if "__init__.py" in files else None
-        order = millsim.physics_order(files, parts or millsim.PHYSICS_SOURCES)
+        order = self.physics_order(commit)
         return tree_hash({path: self.blob(files[path]) for path in order})
 
     def commits(self):
