@@ -46,3 +46,27 @@ def test_every_module_in_scope_has_test_files():
     lacking = [m for m in sample_mutants.modules() if not sample_mutants.test_files_for(m)]
     assert lacking == []
     assert "tests/test_silo.py" in sample_mutants.test_files_for("scenes/silo")
+
+
+def test_a_pooled_draw_is_uniform_over_the_sites_and_scored_as_one_pool():
+    mods = ["util/stats", "engine/timestep"]
+    sizes = {m: len(sample_mutants.sites(m)) for m in mods}
+    everything = sum(sizes.values())
+    drawn = sample_mutants.sample(mods, None, seed=47, pool=everything)
+    assert sorted(m["id"] for m in drawn) == sorted(
+        m["id"] for mod in mods for m in sample_mutants.sites(mod))
+    few = [m["id"] for m in sample_mutants.sample(mods, None, seed=47, pool=8)]
+    assert few == [m["id"] for m in sample_mutants.sample(mods, None, seed=47, pool=8)]
+    assert len(set(few)) == 8
+    # uniform over sites: over many seeds each module's share tends to its share of the sites
+    share = sum(m["module"] == "util/stats" for s in range(200)
+                for m in sample_mutants.sample(mods, None, seed=s, pool=4)) / 800
+    expected = sizes["util/stats"] / everything
+    assert abs(share - expected) < 4 * (expected * (1 - expected) / 800) ** 0.5
+    results = [dict(id=f"util/stats:{k}", module="util/stats", outcome=o)
+               for k, o in enumerate(["killed", "survived", "killed"])]
+    results += [dict(id="engine/timestep:1", module="engine/timestep", outcome="killed")]
+    table = sample_mutants.score_table(results, {}, {"outcome": "passed", "failing": []})
+    pooled = next(line for line in table.splitlines() if line.startswith("| all, pooled"))
+    assert pooled.split("|")[2:5] == [" 3 ", " 4 ", " 75 % "]
+    assert "util/stats:1" in pooled

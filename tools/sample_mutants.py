@@ -167,8 +167,16 @@ def apply(mutant, tree):
     return True
 
 
-def sample(mods, per_module, seed):
-    """The same draw for the same modules, seed and sources: one RNG per module, seeded by both."""
+def sample(mods, per_module, seed, pool=None):
+    """The same draw for the same modules, seed and sources: one RNG per module, seeded by both.
+    With ``pool``, ``pool`` mutants drawn uniformly from all the modules' sites together (each
+    module weighted by its size: a score for a package whose modules are too slow to sample 30
+    each, as engine/ is where every mutant recompiles the step loop)."""
+    if pool is not None:
+        everything = [m for module in mods for m in sites(module)]
+        rng = random.Random(f"{seed}:pool:{','.join(sorted(mods))}")
+        return sorted(rng.sample(everything, min(pool, len(everything))),
+                      key=lambda m: (m["module"], m["start"]))
     chosen = []
     for module in mods:
         everything = sites(module)
@@ -240,15 +248,17 @@ def score_table(results, equivalent, baseline):
              f"fail there: {', '.join(baseline['failing']) or 'none'}.", "",
              "| module | killed | non-equivalent | score | 95 % interval | equivalent | survivors |",
              "|---|---|---|---|---|---|---|"]
-    for module in sorted(by_module):
-        rows = by_module[module]
+    groups = [(module, by_module[module]) for module in sorted(by_module)]
+    if len(groups) > 1:
+        groups.append(("all, pooled", list(results)))
+    for module, rows in groups:
         counted = [r for r in rows if r["id"] not in equivalent
                    and r["outcome"] in ("killed", "survived", "timeout", "error")]
         k, n = sum(r["outcome"] != "survived" for r in counted), len(counted)
         low = stats.beta.ppf(0.025, k, n - k + 1) if k > 0 else 0.0
         high = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
-        survivors = ", ".join(r["id"].split(":", 1)[1] for r in counted
-                              if r["outcome"] == "survived") or "-"
+        survivors = ", ".join((r["id"].split(":", 1)[1] if r["module"] == module else r["id"])
+                              for r in counted if r["outcome"] == "survived") or "-"
         eq = sum(r["id"] in equivalent for r in rows)
         score = f"{100 * k / n:.0f} %" if n else "-"
         lines.append(f"| {module} | {k} | {n} | {score} | {100 * low:.0f}-{100 * high:.0f} % | "
@@ -262,6 +272,8 @@ def main(argv=None):
     ap.add_argument("--module", action="append", help="module below src/millsim, e.g. "
                     "engine/timestep (repeatable; default: every module in scope)")
     ap.add_argument("--per-module", type=int, default=30)
+    ap.add_argument("--pool", type=int, help="instead of --per-module: this many mutants drawn "
+                    "uniformly from the named modules' sites together (scored also as one pool)")
     ap.add_argument("--seed", type=int, default=47)
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per mutant")
     ap.add_argument("--only", action="append", help="of the sample, only the mutants whose id "
@@ -275,7 +287,7 @@ def main(argv=None):
     unknown = [m for m in mods if not (PACKAGE / f"{m}.py").exists()]
     if unknown:
         ap.error(f"--module: no such module {unknown}")
-    mutants = sample(mods, args.per_module, args.seed)
+    mutants = sample(mods, args.per_module, args.seed, args.pool)
     if args.only:
         mutants = [m for m in mutants if any(fnmatch.fnmatchcase(m["id"], g) for g in args.only)]
     if args.list:
@@ -287,7 +299,8 @@ def main(argv=None):
     done = json.loads(Path(args.json).read_text()) if args.json and Path(args.json).exists() \
         else {"baseline": None, "results": []}
     finished = {r["id"] for r in done["results"]}
-    tests_of = {m: test_files_for(m) for m in mods}
+    # only the modules drawn: the baseline runs their test files, not every module's
+    tests_of = {m: test_files_for(m) for m in sorted({m["module"] for m in mutants})}
     with tempfile.TemporaryDirectory(prefix="millsim-sampled-") as tmp:
         tmp = Path(tmp)
         shared = tmp / "cache-shared"
