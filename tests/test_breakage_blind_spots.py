@@ -285,3 +285,26 @@ def test_one_class_is_refused_where_it_would_make_a_broken_particle_its_own_copy
     of itself. The family builder refuses it (the materials file too: tests/test_materials_file.py)."""
     with pytest.raises(ValueError, match="n_classes must be at least 2, got 1"):
         pf.generate_families(3.5, tv.TABLE1_AVERAGE, n_classes=1)
+
+
+def test_a_target_outside_the_families_hull_gets_the_closest_mixture():
+    """Issue 47, seed 53 (`progeny_families:210`): when no mixture of the candidate families
+    meets the target exactly (the linear programme is infeasible), ``_fit_probabilities`` falls
+    back to the closest mixture. Four families of three classes and a target coarser than any:
+    the closest mixture, found here by SLSQP with the sum as an exact constraint, is family 0
+    alone (its distance 0.14, by hand: 0.3^2 + 0.2^2 + 0.1^2). The fallback holds the sum by a
+    penalty, so it may miss by a little: within 1e-3 in the sum and in each class."""
+    from scipy import optimize
+
+    F = np.array([[0.5, 0.3, 0.2], [0.2, 0.5, 0.3], [0.1, 0.2, 0.7], [0.4, 0.4, 0.2]])
+    target = np.array([0.8, 0.1, 0.1])
+    exact = optimize.minimize(lambda q: ((q @ F - target) ** 2).sum(), np.full(4, 0.25),
+                              bounds=[(0.0, None)] * 4, method="SLSQP", options=dict(ftol=1e-15),
+                              constraints=[{"type": "eq", "fun": lambda q: q.sum() - 1.0}]).x
+    np.testing.assert_allclose(exact, [1.0, 0.0, 0.0, 0.0], atol=1e-8)
+    assert ((exact @ F - target) ** 2).sum() == pytest.approx(0.14, rel=1e-9)
+    p = pf._fit_probabilities(F, target)
+    assert (p >= 0).all()
+    assert p.sum() == pytest.approx(1.0, abs=1e-3)
+    np.testing.assert_allclose(p @ F, exact @ F, atol=1e-3)
+    np.testing.assert_allclose(p, exact, atol=1e-3)

@@ -632,6 +632,38 @@ def test_t10_spread_is_that_of_a_drawn_broken_particle(mats_sp, name, ratio):
     assert ver.t10_expected(mat, d, Ek, e) == pytest.approx(product.mean(), rel=0.02)
 
 
+@pytest.mark.parametrize("name,ratio", [("copper_ore", 0.5), ("limestone", 3.0)])
+def test_t10_expected_and_spread_on_a_small_grid_are_the_midpoint_rule(mats_sp, name, ratio):
+    """On 8 quantiles the two integrals over the broken are the midpoint rule written out: the
+    fracture energies at u_k = (k + 1/2)/8 P (found by brentq on eqs 1-2), eq 8's t10' at each;
+    the family term (the variance of the product t10 over the family drawn at t10', eq 11's d/10
+    share of its dummies) at the midpoint quantiles of those 8, E_1, E_3, E_5, E_7, for 4 family
+    points. At the default 200,000 quantiles a node offset moves the mean by ~1e-6 only, below
+    what the quadrature test above can see."""
+    from millsim.models.breakage import progeny_families
+
+    mat = mats_sp[name]
+    d = 29e-3
+    e, E50, Emax = on_steel(mat, d)
+    Ek = ratio * E50 / e
+    P = ref_cdf(e * Ek, E50, Emax, mat.sigma)
+    E = [ref_quantile((k + 0.5) / 8 * P, E50, Emax, mat.sigma) for k in range(8)]
+    t10 = np.array([ref_t10(mat.A, mat.b_prime, e * Ek / E_k) for E_k in E])
+    assert ver.t10_expected(mat, d, Ek, e, grid=8) == pytest.approx(t10.mean(), rel=1e-9)
+
+    def family_variance(t10_prime):
+        grid_t10 = progeny_families.t10_grid(min(max(t10_prime, tv.T10_STEP), mat.A))
+        table = progeny_families.families(mat, grid_t10)
+        per = 100.0 * table.fractions[:, -1] * float(tv.fines_passing(grid_t10, 0.1, mat))
+        prob = table.probabilities / table.probabilities.sum()
+        return float(prob @ (per - prob @ per) ** 2)
+
+    family = np.mean([family_variance(t10[k]) for k in (1, 3, 5, 7)])
+    assert family > 0.01 * t10.var()  # the family term is not lost in the energy term
+    assert ver.t10_spread(mat, d, Ek, e, grid=8, family_points=4) == pytest.approx(
+        math.sqrt(t10.var() + family), rel=1e-9)
+
+
 def test_t10_p_value_is_calibrated_and_sees_a_shift(mats_sp):
     """The t10 verdict's p-value against the model's distribution of the mean of the broken:
     for products drawn from the model itself (the same brute force as above: fracture energies,
