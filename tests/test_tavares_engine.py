@@ -198,6 +198,51 @@ def test_replacement_conserves_mass_and_momentum_and_adds_no_energy():
     assert ev.specific_energy >= ev.fracture_energy == 1.0
 
 
+def test_progeny_of_a_spinning_parent_move_with_it_as_a_rigid_body():
+    """Issue 47, seed 53 (`replacement:155`, `:172`): a spinning 5.5 mm copper-ore sphere breaks
+    on a steel plate. At the replacement each piece moves with the parent as one rigid body at
+    that instant, v = v_p + w_p x (x - x_p), and keeps its spin w_p; each piece's generation tag
+    is the parent's plus one."""
+    from millsim.models.breakage.replacement import TavaresReplacement
+    from millsim.models.breakage.tavares_materials import load_materials
+
+    mats = load_materials(truncation="single_particle")
+    ore, steel = mats["copper_ore"], mats["steel"]
+    table = MaterialTable([Material("copper_ore", ore.density, ore.young, ore.poisson),
+                           Material("steel", steel.density, steel.young, steel.poisson)],
+                          {"*": Interaction(restitution=0.39, friction=0.5)})
+    r, v0 = 2.75e-3, 8.0
+    replace = TavaresReplacement({"copper_ore": ore}, d_min=0.05 * 2 * r, seed=3)
+    sim = Simulation(SPEC, table, x=[[0, 0, 1.02 * r]], radius=[r], material="copper_ore",
+                     v=[[0.5, 0, -v0]], w=[[0.0, 900.0, 400.0]], gravity=(0, 0, 0),
+                     step=StepPolicy(impact_speed=v0, smallest_radius=0.05 * r),
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
+                     breakage=TavaresModel({"copper_ore": (ore.gamma, 0.0)}),
+                     tags={"generation": np.array([3])})
+    sim.breakage.e_frac[0] = 1.0  # J/kg: breaks early in the loading
+    seen = {}
+
+    def on_events(s):
+        if "parent" not in seen:
+            seen["parent"] = tuple(np.array(a[0]) for a in (s.particles.x, s.particles.v,
+                                                             s.particles.w))
+        replace(s)
+        if s.n_particles > 1 and "pieces" not in seen:
+            seen["pieces"] = tuple(np.array(a) for a in (s.particles.x, s.particles.v,
+                                                          s.particles.w, s.tags["generation"]))
+
+    sim.run(3000, chunk=100, on_events=on_events)
+    assert len(replace.events) == 1
+    x_p, v_p, w_p = seen["parent"]
+    x, v, w, generation = seen["pieces"]
+    assert len(x) > 1 and np.linalg.norm(w_p) > 100.0
+    offsets = x - x_p
+    assert np.abs(offsets).max() > 0.2 * r  # the pieces sit apart: w x r is not small
+    np.testing.assert_allclose(v, v_p + np.cross(w_p, offsets), rtol=0, atol=1e-12 * v0)
+    np.testing.assert_array_equal(w, np.broadcast_to(w_p, w.shape))
+    np.testing.assert_array_equal(generation, 4)
+
+
 def test_progeny_reaching_into_a_wall_feel_only_extra_overlap():
     table = MaterialTable([ORE, STEEL], {"*": Interaction(restitution=0.5, friction=0.5)})
     r = 1e-3
