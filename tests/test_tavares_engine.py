@@ -258,6 +258,28 @@ def test_progeny_reaching_into_a_wall_feel_only_extra_overlap():
     assert sim.particles.v[0, 2] > 0
 
 
+def test_progeny_leaving_its_creation_overlap_meets_the_wall_afresh():
+    """Issue 47, seed 55 (`tavares_engine:92`): a piece created 0.2 r into a plate moves out
+    (still inside its creation overlap, so the wall's contact record is cleared each step) and
+    is sent back at 0.5 m/s: it rebounds head-on as a fresh contact, at e = 0.5 of its speed
+    (2 %), with no sideways velocity or spin (a head-on contact has no tangential motion; a
+    stale tangential spring gave 9 mm/s and 21 rad/s)."""
+    table = MaterialTable([ORE, STEEL], {"*": Interaction(restitution=0.5, friction=0.5)})
+    r = 1e-3
+    sim = Simulation(SPEC, table, x=[[0, 0, 0.8 * r]], radius=[r], material="ore",
+                     v=[[0, 0, 0.05]], gravity=(0, 0, 0), breakage=TavaresModel({"ore": (5.0, 0.0)}),
+                     guards=Guards(max_overlap=0.9),
+                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")])
+    sim.breakage.mark_creation_overlaps([0])
+    sim.run(200, chunk=200)
+    assert 0.8 * r < sim.particles.x[0, 2] < 0.9 * r  # out of the plate, still overlapping it
+    sim.particles.v[0] = [0, 0, -0.5]
+    sim.run(4000, chunk=200)
+    assert sim.particles.v[0, 2] == pytest.approx(0.25, rel=0.02)
+    assert np.abs(sim.particles.v[0, :2]).max() == 0.0
+    assert np.abs(sim.particles.w[0]).max() == 0.0
+
+
 def test_break_at_end_reports_the_whole_event_once():
     """A particle whose decision waits for the end of its stressing event is reported with the
     whole loading work (the work-energy value, not the fracture energy it passed), once."""
