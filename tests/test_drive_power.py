@@ -178,8 +178,9 @@ def test_a_wall_receives_the_whole_angular_impulse_vector_the_bead_gains():
     1 mm along the axis from the wall's point, so the contact's lever has all three components.
     The wall's angular impulse about its point (the origin) is minus the bead's angular momentum
     change about it, component by component (measured 2e-15 of the whole, allowed 1e-9: one
-    sphere and a wall, no pair film to leak); the torques about y and z are a fifth of the one about the axis here, so a lever component
-    read from the wrong coordinate shows (the x-axis balance alone does not see it)."""
+    sphere and a wall, no pair film to leak); the angular impulses about y and z are 0.7 and
+    0.2 of the one about the axis here, so a lever component read from the wrong coordinate
+    shows (the x-axis balance alone does not see it)."""
     Rs = 3.6e-3
     sim = make_sim([[1e-3, 0.4e-3, Rs + RB + 0.3e-3]], [RB], ["bead"], v=[[0, 0, -0.5]],
                    walls=[dict(kind="cylinder_outer", point=(0, 0, 0), axis=X_AXIS, radius=Rs,
