@@ -471,9 +471,9 @@ def test_the_explicit_bound_takes_the_contact_dashpot_of_the_lightest_pair():
     for restitution 0.5 in the engine's clipped convention (Schwager and Poeschel 2007, the
     closed form in helpers.py). At 1 mPa s the dashpot's rate is about twice the film's: the
     bound without it is 1.5x longer."""
-    from helpers import clipped_damping_ratio
-
     from millsim.models.lubrication import lubrication_dt_limit
+
+    from helpers import clipped_damping_ratio
 
     sim = make_sim([[0, 0, 0]], [A_S], eta=1e-3, scheme="explicit")
     m = mass(A_S)
