@@ -157,10 +157,10 @@ def test_breakage_requires_a_hertzian_law():
                    breakage=TavaresModel({"ore": (5.0, 0.0)}))
 
 
-def test_replacement_conserves_mass_and_momentum_and_adds_no_energy():
-    """A 5.5 mm copper-ore sphere breaks on a steel plate. At the replacement: resolved mass +
-    fines = parent mass, the progeny carry the parent's momentum, and their creation overlaps
-    put no energy in (kinetic energy after the event stays below the parent's before impact)."""
+def _copper_on_plate(v0, **state):
+    """A 5.5 mm copper-ore sphere (Tavares et al. 2021's materials) 0.02 r above a steel plate
+    at v0 downwards (or ``state``'s v, w, tags), weak enough to break early in the loading, and
+    the replacement that breaks it: (sim, replace, r)."""
     from millsim.models.breakage.replacement import TavaresReplacement
     from millsim.models.breakage.tavares_materials import load_materials
 
@@ -169,14 +169,23 @@ def test_replacement_conserves_mass_and_momentum_and_adds_no_energy():
     table = MaterialTable([Material("copper_ore", ore.density, ore.young, ore.poisson),
                            Material("steel", steel.density, steel.young, steel.poisson)],
                           {"*": Interaction(restitution=0.39, friction=0.5)})
-    r, v0 = 2.75e-3, 8.0
+    r = 2.75e-3
     replace = TavaresReplacement({"copper_ore": ore}, d_min=0.05 * 2 * r, seed=3)
+    state = dict(dict(v=[[0, 0, -v0]]), **state)
     sim = Simulation(SPEC, table, x=[[0, 0, 1.02 * r]], radius=[r], material="copper_ore",
-                     v=[[0, 0, -v0]], gravity=(0, 0, 0),
-                     step=StepPolicy(impact_speed=v0, smallest_radius=0.05 * r),
+                     gravity=(0, 0, 0), step=StepPolicy(impact_speed=v0, smallest_radius=0.05 * r),
                      walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
-                     breakage=TavaresModel({"copper_ore": (ore.gamma, 0.0)}))
+                     breakage=TavaresModel({"copper_ore": (ore.gamma, 0.0)}), **state)
     sim.breakage.e_frac[0] = 1.0  # J/kg: breaks early in the loading
+    return sim, replace, r
+
+
+def test_replacement_conserves_mass_and_momentum_and_adds_no_energy():
+    """A 5.5 mm copper-ore sphere breaks on a steel plate. At the replacement: resolved mass +
+    fines = parent mass, the progeny carry the parent's momentum, and their creation overlaps
+    put no energy in (kinetic energy after the event stays below the parent's before impact)."""
+    v0 = 8.0
+    sim, replace, r = _copper_on_plate(v0)
     m0 = replace.resolved_mass(sim)
     ke0 = sim.kinetic_energy()
     seen = {}
@@ -203,23 +212,9 @@ def test_progeny_of_a_spinning_parent_move_with_it_as_a_rigid_body():
     on a steel plate. At the replacement each piece moves with the parent as one rigid body at
     that instant, v = v_p + w_p x (x - x_p), and keeps its spin w_p; each piece's generation tag
     is the parent's plus one."""
-    from millsim.models.breakage.replacement import TavaresReplacement
-    from millsim.models.breakage.tavares_materials import load_materials
-
-    mats = load_materials(truncation="single_particle")
-    ore, steel = mats["copper_ore"], mats["steel"]
-    table = MaterialTable([Material("copper_ore", ore.density, ore.young, ore.poisson),
-                           Material("steel", steel.density, steel.young, steel.poisson)],
-                          {"*": Interaction(restitution=0.39, friction=0.5)})
-    r, v0 = 2.75e-3, 8.0
-    replace = TavaresReplacement({"copper_ore": ore}, d_min=0.05 * 2 * r, seed=3)
-    sim = Simulation(SPEC, table, x=[[0, 0, 1.02 * r]], radius=[r], material="copper_ore",
-                     v=[[0.5, 0, -v0]], w=[[0.0, 900.0, 400.0]], gravity=(0, 0, 0),
-                     step=StepPolicy(impact_speed=v0, smallest_radius=0.05 * r),
-                     walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")],
-                     breakage=TavaresModel({"copper_ore": (ore.gamma, 0.0)}),
-                     tags={"generation": np.array([3])})
-    sim.breakage.e_frac[0] = 1.0  # J/kg: breaks early in the loading
+    v0 = 8.0
+    sim, replace, r = _copper_on_plate(v0, v=[[0.5, 0, -v0]], w=[[0.0, 900.0, 400.0]],
+                                       tags={"generation": np.array([3])})
     seen = {}
 
     def on_events(s):
