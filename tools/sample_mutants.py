@@ -30,6 +30,8 @@ file recompiles the step loop).
     python tools/sample_mutants.py --list                      # the sample, without running it
     python tools/sample_mutants.py --json results/sampled_mutants.json --out results/sampled.md
     python tools/sample_mutants.py --module engine/timestep --json ...   # one module (repeatable)
+    python tools/sample_mutants.py --module engine/mesh --module engine/walls --pool 20 --json ...
+                                                               # 20 drawn from both modules' sites
 """
 
 import argparse
