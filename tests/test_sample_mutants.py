@@ -2,8 +2,12 @@
 the edit it says, and every module in scope has test files to run its mutants against."""
 
 import ast
+import json
+import shutil
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
@@ -70,3 +74,36 @@ def test_a_pooled_draw_is_uniform_over_the_sites_and_scored_as_one_pool():
     pooled = next(line for line in table.splitlines() if line.startswith("| all, pooled"))
     assert pooled.split("|")[2:5] == [" 3 ", " 4 ", " 75 % "]
     assert "util/stats:1" in pooled
+
+
+def test_named_tests_replace_the_importers_in_the_baseline_and_every_mutant(tmp_path, monkeypatch):
+    """``--tests``: the named node ids run in the baseline and against each mutant, in place of the
+    test files importing the module, the report says so, and a record made with other tests is
+    not resumed."""
+    calls = []
+
+    def snapshot(ref, tree):
+        (tree / "src/millsim/util").mkdir(parents=True)
+        shutil.copy(ROOT / "src/millsim/util/stats.py", tree / "src/millsim/util/stats.py")
+
+    def run_tests(tree, tests, timeout, cache):
+        mutated = (tree / "src/millsim/util/stats.py").read_text() != (
+            ROOT / "src/millsim/util/stats.py").read_text()
+        calls.append((mutated, list(tests)))
+        return ("killed" if mutated else "survived"), 1.0, ""
+
+    monkeypatch.setattr(sample_mutants, "snapshot", snapshot)
+    monkeypatch.setattr(sample_mutants, "run_tests", run_tests)
+    named = ["tests/test_stats.py::test_a", "tests/test_other.py"]
+    record, report = tmp_path / "after.json", tmp_path / "after.md"
+    argv = ["--module", "util/stats", "--per-module", "2", "--seed", "47", "--json", str(record),
+            "--out", str(report)] + [a for t in named for a in ("--tests", t)]
+    assert sample_mutants.main(argv) == 0
+    baseline = [tests for mutated, tests in calls if not mutated]
+    assert sorted(baseline) == sorted([[named[0]], [named[1]]])  # one file or node id at a time
+    assert [tests for mutated, tests in calls if mutated] == [named, named]
+    done = json.loads(record.read_text())
+    assert done["tests"] == named and [r["outcome"] for r in done["results"]] == ["killed"] * 2
+    assert "tests/test_stats.py::test_a, tests/test_other.py" in report.read_text()
+    with pytest.raises(SystemExit):
+        sample_mutants.main(argv[:-4])  # the same record, by import

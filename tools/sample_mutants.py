@@ -32,6 +32,8 @@ file recompiles the step loop).
     python tools/sample_mutants.py --module engine/timestep --json ...   # one module (repeatable)
     python tools/sample_mutants.py --module engine/mesh --module engine/walls --pool 20 --json ...
                                                                # 20 drawn from both modules' sites
+    python tools/sample_mutants.py ... --only 'engine/loop/wall_pass:83:*' \
+        --tests tests/test_drive_power.py --json after.json   # a survivor against named tests
 """
 
 import argparse
@@ -240,7 +242,7 @@ def load_equivalent(path=EQUIVALENT):
     return table
 
 
-def score_table(results, equivalent, baseline):
+def score_table(results, equivalent, baseline, tests=None):
     """Markdown: per module, killed of non-equivalent with the Clopper-Pearson 95 % interval."""
     by_module = defaultdict(list)
     for r in results:
@@ -248,6 +250,8 @@ def score_table(results, equivalent, baseline):
     lines = ["# Sampled mutation score", "",
              f"Baseline (unmutated copy): {baseline['outcome']}; test files left out because they "
              f"fail there: {', '.join(baseline['failing']) or 'none'}.", "",
+             *([f"Tests run against every mutant (not those importing its module): "
+                f"{', '.join(tests)}.", ""] if tests else []),
              "| module | killed | non-equivalent | score | 95 % interval | equivalent | survivors |",
              "|---|---|---|---|---|---|---|"]
     groups = [(module, by_module[module]) for module in sorted(by_module)]
@@ -280,6 +284,9 @@ def main(argv=None):
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per mutant")
     ap.add_argument("--only", action="append", help="of the sample, only the mutants whose id "
                     "matches this glob (repeatable), e.g. to re-run the survivors")
+    ap.add_argument("--tests", action="append", help="run these test files or node ids "
+                    "(repeatable) against every mutant instead of those importing its module, "
+                    "e.g. the survivors against the tests written for them")
     ap.add_argument("--list", action="store_true", help="print the sample and exit")
     ap.add_argument("--json", help="outcomes, appended as each mutant ends (resumes from it)")
     ap.add_argument("--out", help="also write the report (Markdown) here")
@@ -300,9 +307,13 @@ def main(argv=None):
 
     done = json.loads(Path(args.json).read_text()) if args.json and Path(args.json).exists() \
         else {"baseline": None, "results": []}
+    if done["results"] and done.get("tests") != args.tests:
+        ap.error(f"{args.json} holds mutants run against tests {done.get('tests') or 'by import'}"
+                 f", not {args.tests or 'by import'}: name another --json")
+    done["tests"] = args.tests
     finished = {r["id"] for r in done["results"]}
     # only the modules drawn: the baseline runs their test files, not every module's
-    tests_of = {m: test_files_for(m) for m in sorted({m["module"] for m in mutants})}
+    tests_of = {m: args.tests or test_files_for(m) for m in sorted({m["module"] for m in mutants})}
     with tempfile.TemporaryDirectory(prefix="millsim-sampled-") as tmp:
         tmp = Path(tmp)
         shared = tmp / "cache-shared"
@@ -346,7 +357,7 @@ def main(argv=None):
             print(f"[{k}/{len(mutants)}] {m['id']:44s} {outcome:9s} {elapsed:6.0f} s  {detail}",
                   flush=True)
 
-    report = score_table(done["results"], load_equivalent(), done["baseline"])
+    report = score_table(done["results"], load_equivalent(), done["baseline"], args.tests)
     print(report)
     if args.out:
         Path(args.out).write_text(report)
