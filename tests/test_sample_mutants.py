@@ -79,7 +79,8 @@ def test_a_pooled_draw_is_uniform_over_the_sites_and_scored_as_one_pool():
 def test_named_tests_replace_the_importers_in_the_baseline_and_every_mutant(tmp_path, monkeypatch):
     """``--tests``: the named node ids run in the baseline and against each mutant, in place of the
     test files importing the module, the report says so, and a record made with other tests is
-    not resumed."""
+    not resumed. A mutant's time limit is ``--timeout`` beyond 3x its tests' baseline time (the
+    baseline's files took 1 s each here)."""
     calls = []
 
     def snapshot(ref, tree):
@@ -89,7 +90,7 @@ def test_named_tests_replace_the_importers_in_the_baseline_and_every_mutant(tmp_
     def run_tests(tree, tests, timeout, cache):
         mutated = (tree / "src/millsim/util/stats.py").read_text() != (
             ROOT / "src/millsim/util/stats.py").read_text()
-        calls.append((mutated, list(tests)))
+        calls.append((mutated, list(tests), timeout))
         return ("killed" if mutated else "survived"), 1.0, ""
 
     monkeypatch.setattr(sample_mutants, "snapshot", snapshot)
@@ -97,11 +98,12 @@ def test_named_tests_replace_the_importers_in_the_baseline_and_every_mutant(tmp_
     named = ["tests/test_stats.py::test_a", "tests/test_other.py"]
     record, report = tmp_path / "after.json", tmp_path / "after.md"
     argv = ["--module", "util/stats", "--per-module", "2", "--seed", "47", "--json", str(record),
-            "--out", str(report)] + [a for t in named for a in ("--tests", t)]
+            "--out", str(report), "--timeout", "5"] + [a for t in named for a in ("--tests", t)]
     assert sample_mutants.main(argv) == 0
-    baseline = [tests for mutated, tests in calls if not mutated]
+    baseline = [tests for mutated, tests, _ in calls if not mutated]
     assert sorted(baseline) == sorted([[named[0]], [named[1]]])  # one file or node id at a time
-    assert [tests for mutated, tests in calls if mutated] == [named, named]
+    assert [(tests, limit) for mutated, tests, limit in calls if mutated] == [(named, 11.0)] * 2
+    assert json.loads(record.read_text())["baseline"]["seconds"] == dict.fromkeys(named, 1.0)
     done = json.loads(record.read_text())
     assert done["tests"] == named and [r["outcome"] for r in done["results"]] == ["killed"] * 2
     assert "tests/test_stats.py::test_a, tests/test_other.py" in report.read_text()

@@ -24,7 +24,9 @@ in the report, so a missing file never counts as a kill.
 Equivalent mutants (no behaviour can tell them apart) are listed by hand with the reason in
 ``tools/equivalent_mutants.yaml`` and leave the score's denominator. The score per module comes
 with its Clopper-Pearson 95 % interval. Results are appended to ``--json`` as each mutant ends, so
-an interrupted run resumes with the same command. Not part of CI (hours: a mutant of a compiled
+an interrupted run resumes with the same command. A mutant still running after ``--timeout``
+seconds beyond 3x the baseline's time for its test files counts as killed (a hang or a slowdown
+no user would accept). Not part of CI (hours: a mutant of a compiled
 file recompiles the step loop).
 
     python tools/sample_mutants.py --list                      # the sample, without running it
@@ -56,6 +58,10 @@ PACKAGE = ROOT / "src" / "millsim"
 # physics and analysis: what a wrong number could come from (not the CLI, plots or I/O)
 SCOPE = ("engine", "models", "analysis", "scenes", "util/stats.py")
 EQUIVALENT = ROOT / "tools" / "equivalent_mutants.yaml"
+# a mutant's time limit: --timeout beyond this many times the baseline's time for its test files
+# (a mutant of the step loop recompiles it in every file, which the baseline's shared cache does
+# once; a test file of whole DEM cases takes minutes unmutated)
+SLOWDOWN = 3.0
 
 _ARITH = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
           ast.Pow: ast.Mult}
@@ -281,7 +287,8 @@ def main(argv=None):
     ap.add_argument("--pool", type=int, help="instead of --per-module: this many mutants drawn "
                     "uniformly from the named modules' sites together (scored also as one pool)")
     ap.add_argument("--seed", type=int, default=47)
-    ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per mutant")
+    ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per mutant beyond "
+                    f"{SLOWDOWN}x the baseline's time for its test files")
     ap.add_argument("--only", action="append", help="of the sample, only the mutants whose id "
                     "matches this glob (repeatable), e.g. to re-run the survivors")
     ap.add_argument("--tests", action="append", help="run these test files or node ids "
@@ -326,15 +333,16 @@ def main(argv=None):
 
         if done["baseline"] is None:
             fresh_tree()
-            failing = []
+            failing, seconds = [], {}
             for test in sorted({t for ts in tests_of.values() for t in ts}):
-                outcome, _, _ = run_tests(tree, [test], args.timeout, shared)
+                outcome, seconds[test], _ = run_tests(tree, [test], args.timeout, shared)
                 if outcome != "survived":  # "survived" = pytest passed
                     failing.append(test)
             done["baseline"] = {"outcome": "passed" if not failing else "some test files fail",
-                                "failing": failing}
+                                "failing": failing, "seconds": seconds}
             print(f"baseline: {done['baseline']}", flush=True)
         left_out = set(done["baseline"]["failing"])
+        baseline_seconds = done["baseline"].get("seconds", {})
         for k, m in enumerate(mutants, 1):
             if m["id"] in finished:
                 continue
@@ -345,7 +353,9 @@ def main(argv=None):
             if not apply(m, tree):
                 outcome, elapsed, detail = "invalid", 0.0, "does not compile"
             else:
-                outcome, elapsed, detail = run_tests(tree, tests, args.timeout, cache)
+                # a mutant that only runs long is no kill: its limit scales with its tests' time
+                limit = args.timeout + SLOWDOWN * sum(baseline_seconds.get(t, 0.0) for t in tests)
+                outcome, elapsed, detail = run_tests(tree, tests, limit, cache)
             if compiled:
                 shutil.rmtree(cache, ignore_errors=True)
             done["results"].append(dict(id=m["id"], module=m["module"], operator=m["operator"],
