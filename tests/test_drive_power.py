@@ -194,6 +194,35 @@ def test_a_wall_receives_the_whole_angular_impulse_vector_the_bead_gains():
     np.testing.assert_allclose(-received, gained, rtol=0, atol=1e-9 * np.linalg.norm(gained))
 
 
+def test_the_film_of_a_turning_shaft_drags_alike_about_every_axis():
+    """Issue 47, seed 55 (`lubrication:527`): the bead at rest in the film of the turning shaft
+    (gap 40 um, inside the film's 90 um, no contact), 40 degrees round and 1 mm along the axis
+    from the wall's point, so its offset has three nonzero components. The set-up turned by the
+    cyclic permutation (x, y, z) -> (y, z, x), once and twice, puts the shaft along y and z: a
+    rotation, so the bead's velocity and spin after 1 ms are the permuted ones (measured to
+    round-off; 1e-9 of their size allowed). The wall's velocity at the bead has one term per pair
+    of components; a term lost for one axis shows (all the other drive tests turn about x)."""
+    Rs, gap, angle = 3.6e-3, 40e-6, math.radians(40.0)
+    rho = Rs + RB + gap
+    start = np.array([1e-3, rho * math.cos(angle), rho * math.sin(angle)])
+    moved = []
+    for k in range(3):
+        sim = make_sim([np.roll(start, k)], [RB], ["bead"],
+                       walls=[dict(kind="cylinder_outer", point=(0, 0, 0),
+                                   axis=np.roll(X_AXIS, k), radius=Rs, omega=SHAFT_RATE,
+                                   material="steel")])
+        steps = int(round(1e-3 / sim.dt))
+        sim.run(steps, chunk=steps, threads=1)
+        axial = np.roll(X_AXIS, k) @ sim.particles.x[0]
+        assert np.linalg.norm(sim.particles.x[0]) ** 2 - axial**2 > (Rs + RB) ** 2  # apart
+        moved.append((sim.particles.v[0].copy(), sim.particles.w[0].copy()))
+    v0, w0 = moved[0]
+    assert np.linalg.norm(v0) > 1e-3  # dragged: mm/s in 1 ms
+    for k, (v, w) in enumerate(moved):
+        np.testing.assert_allclose(v, np.roll(v0, k), rtol=0, atol=1e-9 * np.linalg.norm(v0))
+        np.testing.assert_allclose(w, np.roll(w0, k), rtol=0, atol=1e-9 * np.linalg.norm(w0))
+
+
 def test_a_ramping_drive_follows_its_start_up_and_books_its_work_at_the_current_rate():
     """The paddle starts from rest and reaches its rate at constant acceleration over 2 ms; it
     hits the bead at about 1.4 ms, at three quarters of its rate, and is clear of it after 4 ms.
