@@ -109,3 +109,37 @@ def test_named_tests_replace_the_importers_in_the_baseline_and_every_mutant(tmp_
     assert "tests/test_stats.py::test_a, tests/test_other.py" in report.read_text()
     with pytest.raises(SystemExit):
         sample_mutants.main(argv[:-4])  # the same record, by import
+
+
+def test_an_interrupted_baseline_resumes_where_it_stopped(tmp_path, monkeypatch):
+    """The baseline is kept file by file: stopped in its second file, the same command runs only
+    the files not yet run, then the mutants."""
+    calls = []
+
+    def snapshot(ref, tree):
+        (tree / "src/millsim/util").mkdir(parents=True)
+        shutil.copy(ROOT / "src/millsim/util/stats.py", tree / "src/millsim/util/stats.py")
+
+    def run_tests(tree, tests, timeout, cache):
+        if len(calls) == 1 and interrupt:
+            raise KeyboardInterrupt
+        calls.append(list(tests))
+        return "survived", 2.0, ""
+
+    monkeypatch.setattr(sample_mutants, "snapshot", snapshot)
+    monkeypatch.setattr(sample_mutants, "run_tests", run_tests)
+    record = tmp_path / "run.json"
+    named = ["tests/a.py", "tests/b.py", "tests/c.py"]
+    argv = ["--module", "util/stats", "--per-module", "1", "--json", str(record)] + [
+        a for t in named for a in ("--tests", t)]
+    interrupt = True
+    with pytest.raises(KeyboardInterrupt):
+        sample_mutants.main(argv)
+    kept = json.loads(record.read_text())["baseline"]
+    assert kept["outcome"] is None and kept["seconds"] == {"tests/a.py": 2.0}
+    interrupt = False
+    calls.clear()
+    assert sample_mutants.main(argv) == 0
+    assert calls == [["tests/b.py"], ["tests/c.py"], named]  # the rest of the baseline, a mutant
+    done = json.loads(record.read_text())
+    assert done["baseline"]["outcome"] == "passed" and len(done["baseline"]["seconds"]) == 3

@@ -23,11 +23,11 @@ in the report, so a missing file never counts as a kill.
 
 Equivalent mutants (no behaviour can tell them apart) are listed by hand with the reason in
 ``tools/equivalent_mutants.yaml`` and leave the score's denominator. The score per module comes
-with its Clopper-Pearson 95 % interval. Results are appended to ``--json`` as each mutant ends, so
-an interrupted run resumes with the same command. A mutant still running after ``--timeout``
-seconds beyond 3x the baseline's time for its test files counts as killed (a hang or a slowdown
-no user would accept). Not part of CI (hours: a mutant of a compiled
-file recompiles the step loop).
+with its Clopper-Pearson 95 % interval. Results are appended to ``--json`` as each mutant (and each
+file of the baseline) ends, so an interrupted run resumes with the same command. A mutant still
+running ``--timeout`` seconds beyond 3x the baseline's time for its test files counts as killed
+(a hang or a slowdown no user would accept). Not part of CI (hours: a mutant of a compiled file
+recompiles the step loop).
 
     python tools/sample_mutants.py --list                      # the sample, without running it
     python tools/sample_mutants.py --json results/sampled_mutants.json --out results/sampled.md
@@ -331,16 +331,23 @@ def main(argv=None):
             tree.mkdir()
             snapshot(None, tree)
 
-        if done["baseline"] is None:
+        def save():
+            if args.json:
+                Path(args.json).write_text(json.dumps(done, indent=1))
+
+        if done["baseline"] is None or done["baseline"]["outcome"] is None:
+            # kept file by file: an interrupted baseline (an hour over a scene's files) resumes
+            base = done["baseline"] or {"outcome": None, "failing": [], "seconds": {}}
+            done["baseline"] = base
             fresh_tree()
-            failing, seconds = [], {}
-            for test in sorted({t for ts in tests_of.values() for t in ts}):
-                outcome, seconds[test], _ = run_tests(tree, [test], args.timeout, shared)
+            for test in sorted({t for ts in tests_of.values() for t in ts} - set(base["seconds"])):
+                outcome, base["seconds"][test], _ = run_tests(tree, [test], args.timeout, shared)
                 if outcome != "survived":  # "survived" = pytest passed
-                    failing.append(test)
-            done["baseline"] = {"outcome": "passed" if not failing else "some test files fail",
-                                "failing": failing, "seconds": seconds}
-            print(f"baseline: {done['baseline']}", flush=True)
+                    base["failing"].append(test)
+                save()
+            base["outcome"] = "passed" if not base["failing"] else "some test files fail"
+            save()
+            print(f"baseline: {base}", flush=True)
         left_out = set(done["baseline"]["failing"])
         baseline_seconds = done["baseline"].get("seconds", {})
         for k, m in enumerate(mutants, 1):
@@ -362,8 +369,7 @@ def main(argv=None):
                                         original=m["original"], replacement=m["replacement"],
                                         outcome=outcome, seconds=round(elapsed, 1),
                                         detail=detail))
-            if args.json:
-                Path(args.json).write_text(json.dumps(done, indent=1))
+            save()
             print(f"[{k}/{len(mutants)}] {m['id']:44s} {outcome:9s} {elapsed:6.0f} s  {detail}",
                   flush=True)
 
