@@ -10,14 +10,17 @@ called from Python.
 import math
 
 import numpy as np
-from hypothesis import Phase, given, settings
+from hypothesis import Phase, example, given, settings
 from hypothesis import strategies as st
 
+from millsim.engine import PhysicsSpec, Simulation
 from millsim.engine.insertion import Pour
 from millsim.engine.kinematics import FRUSTUM, WALL_COLUMNS
 from millsim.engine.mesh import EDGE_AB, EDGE_AC, EDGE_BC, FACE, closest_on_triangle
 from millsim.engine.neighbours import _cell_index, _cell_range
+from millsim.engine.wall_geometry import WallTessellator
 from millsim.engine.walls import wall_contact_bounded
+from millsim.models import Interaction, Material, MaterialTable
 
 from helpers import PourCharge
 
@@ -162,3 +165,36 @@ def test_poured_spheres_clear_every_sphere_by_the_gap(existing, rmin, spread, ga
     d[np.arange(len(new)), new] = np.inf
     assert d.min() >= gap - 1e-12
     assert (x[new] - r[new, None] >= -1e-12).all() and (x[new] + r[new, None] <= 1 + 1e-12).all()
+
+
+# ---- drawn walls: a cylinder about any axis -----------------------------------------------------
+
+unit_axis = st.tuples(coord, coord, coord).filter(lambda a: 0.1 < np.linalg.norm(a))
+
+
+@CHEAP
+@given(axis=unit_axis)
+@example(axis=(1.0, 1.0, 0.0))  # diagonal in xy: the frame's helper vector must not lie along it
+@example(axis=(0.95, 0.0, 0.1))  # past the switch of helper at |a_x| = 0.9
+def test_a_drawn_cylinder_lies_at_its_radius_about_any_axis(axis):
+    """The snapshot's drawing of a cylinder wall (engine.wall_geometry.WallTessellator): every
+    vertex at the radius from the axis line and the vertices spread round it (brute force: the
+    distance from the line, and the angle between two of them), for axes drawn at random and
+    two at the helper vector's edge cases (issue 47, seed 54 `wall_geometry:51`: a helper
+    [1, 1, 0] draws NaN for the axis along it)."""
+    a = np.asarray(axis) / np.linalg.norm(axis)
+    point, radius = np.array([0.1, -0.2, 0.3]), 0.05
+    sim = Simulation(PhysicsSpec(dim=3, walls=True), MaterialTable(
+        [Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3)}, "linear_history"),
+        x=[point + 0.01 * np.cross(a, [0.3, 0.5, 0.7])], radius=[1e-3], material="m",
+        walls=[dict(kind="cylinder_inner", point=tuple(point), axis=tuple(a), radius=radius,
+                    material="m")], gravity=(0, 0, 0))
+    drawn = WallTessellator(segments=12)(sim)["points"]
+    off = drawn - point
+    across = off - (off @ a)[:, None] * a
+    np.testing.assert_allclose(np.linalg.norm(across, axis=1), radius, rtol=1e-9)
+    # twelve directions round the axis, 30 degrees apart
+    angles = np.degrees(np.arctan2(np.cross(across[0], across) @ a, across @ across[0]))
+    step = np.round(angles / 30.0)
+    np.testing.assert_allclose(angles, 30.0 * step, atol=1e-6)
+    assert set((step % 12).astype(int)) == set(range(12))
