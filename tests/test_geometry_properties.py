@@ -1,7 +1,8 @@
 """Property-based checks (hypothesis) of the geometric kernels against brute force written here:
 the closest point of a triangle (dense barycentric sampling), the distance to a frustum sheet
 (dense sampling of the surface of revolution), the cells a neighbour search visits along an axis
-(every point within reach falls in one of them), and the pour's clearance (pairwise distances).
+(every point within reach falls in one of them), the pour's clearance (pairwise distances), and
+a drawn cylinder wall about any axis (the distance of its vertices from the axis line).
 
 Derandomized and few examples: deterministic and cheap in CI; the kernels are the compiled ones,
 called from Python.
