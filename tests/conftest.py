@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pytest
 
+from millsim.models.breakage import tavares_materials
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -18,3 +20,15 @@ def workdir(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # the API changes into its workdir; undone after the test
     monkeypatch.setenv("PATH", os.environ["PATH"])  # common.smk prepends the venv; undone too
     return tmp_path
+
+
+# the Tavares materials (config/materials.yaml) with the truncation of the bed and of the
+# single-particle verification, for the breakage tests (test_tavares_model.py has its own)
+@pytest.fixture(scope="module")
+def mats():
+    return tavares_materials.load_materials(truncation="bed")
+
+
+@pytest.fixture(scope="module")
+def mats_sp():
+    return tavares_materials.load_materials(truncation="single_particle")

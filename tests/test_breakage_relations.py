@@ -61,17 +61,6 @@ def make_sim(spec, table, **kw):
     return Simulation(spec, table, **kw)
 
 
-@pytest.fixture(scope="module")
-def mats():
-    return tavares_materials.load_materials(truncation="bed")
-
-
-@pytest.fixture(scope="module")
-def mats_sp():
-    return tavares_materials.load_materials(truncation="single_particle")
-
-
-
 # ---- eqs 1-3 --------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", BREAKABLE)
 def test_eq3_median_fracture_energy_on_both_sides_of_d0(mats, name):

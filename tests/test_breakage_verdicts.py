@@ -39,20 +39,9 @@ from scipy import stats
 
 from millsim.analysis import bed_impact as bed_analysis
 from millsim.models.breakage import tavares as tv
-from millsim.models.breakage import tavares_materials
 from millsim.models.breakage import tavares_predictions as ver
 from millsim.models.breakage.replacement import product_passing as replacement_passing
 from millsim.util.stats import binomial_interval
-
-
-@pytest.fixture(scope="module")
-def mats():
-    return tavares_materials.load_materials(truncation="bed")
-
-
-@pytest.fixture(scope="module")
-def mats_sp():
-    return tavares_materials.load_materials(truncation="single_particle")
 
 
 # ---- analysis: probabilities, medians, intervals --------------------------------------------
@@ -74,7 +63,6 @@ def test_clopper_pearson_is_the_exact_binomial_tail(level):
         z = stats.norm.ppf(1 - a / 2)
         for p in binomial_interval(k, n, level, method="wilson"):
             assert (k / n - p) ** 2 == pytest.approx(z * z * p * (1 - p) / n, rel=1e-9, abs=1e-15)
-
 
 
 @pytest.mark.parametrize("name", BREAKABLE)
