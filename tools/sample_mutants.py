@@ -314,7 +314,7 @@ def main(argv=None):
 
     done = json.loads(Path(args.json).read_text()) if args.json and Path(args.json).exists() \
         else {"baseline": None, "results": []}
-    if done["results"] and done.get("tests") != args.tests:
+    if (done["results"] or done["baseline"]) and done.get("tests") != args.tests:
         ap.error(f"{args.json} holds mutants run against tests {done.get('tests') or 'by import'}"
                  f", not {args.tests or 'by import'}: name another --json")
     done["tests"] = args.tests
