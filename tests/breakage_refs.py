@@ -106,7 +106,6 @@ def ref_curve(t10, pairs, x):
     raise ValueError(x)
 
 
-
 def on_steel(mat, d):
     """(absorbed share on steel by eq 4, median E50 by eq 3, Emax) of a particle of size d."""
     E50 = ref_E50(mat, d)
