@@ -41,7 +41,7 @@ RHO = 2500.0
 K_N = 2e3
 MASS = RHO * 4.0 / 3.0 * math.pi * R**3
 W0 = math.sqrt(K_N / MASS)
-# variants other files compile already: no new kernel (tests/test_walls_integrators.py)
+# variants other files compile already: no new kernel (tests/test_wall_kinds.py)
 WALL_VERLET = PhysicsSpec(dim=3, walls=True)
 BOUNDED_HERTZ = PhysicsSpec(dim=3, walls=True, bounded_walls=True)  # the silo's
 
@@ -191,7 +191,7 @@ def test_linear_history_oblique_impact_against_the_model_ode(v_t, w, mu):
     sim.run(steps, chunk=steps)
     vx, vy, wz = linear_history_impact(v_n=v_n, v_t=v_t, w=w, mu=mu, zeta=zeta, kt_ratio=2 / 7)
     # first order in dt: the dashpot force jumps at onset inside a step, zeta w0 dt of the
-    # speed (as tests/test_walls_integrators.py), plus O((w0 dt)^2)
+    # speed (as tests/test_wall_kinds.py), plus O((w0 dt)^2)
     tol = (zeta * W0 * dt + 1e-4) * v_n
     assert sim.particles.v[0, 0] == pytest.approx(vx, abs=tol)
     assert sim.particles.v[0, 1] == pytest.approx(vy, abs=tol)

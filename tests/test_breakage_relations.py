@@ -28,6 +28,15 @@ import math
 
 import numpy as np
 import pytest
+from scipy import optimize, stats
+
+from millsim.engine import PhysicsSpec, Simulation, StepPolicy
+from millsim.models import Interaction, Material, MaterialTable, TavaresModel, WeibullModel
+from millsim.models.breakage import tavares as tv
+from millsim.models.breakage import tavares_materials, weibull
+from millsim.models.breakage import tavares_predictions as ver
+from millsim.util.stats import steady_rate
+
 from breakage_refs import (
     BREAKABLE,
     K_STEEL,
@@ -46,14 +55,6 @@ from breakage_refs import (
     ref_t10,
     ref_tn,
 )
-from scipy import optimize, stats
-
-from millsim.engine import PhysicsSpec, Simulation, StepPolicy
-from millsim.models import Interaction, Material, MaterialTable, TavaresModel, WeibullModel
-from millsim.models.breakage import tavares as tv
-from millsim.models.breakage import tavares_materials, weibull
-from millsim.models.breakage import tavares_predictions as ver
-from millsim.util.stats import steady_rate
 
 
 def make_sim(spec, table, **kw):

@@ -17,6 +17,14 @@ import math
 import numpy as np
 import pytest
 import xarray as xr
+from scipy import stats
+
+from millsim.analysis import bed_impact as bed_analysis
+from millsim.models.breakage import tavares as tv
+from millsim.models.breakage import tavares_predictions as ver
+from millsim.models.breakage.replacement import product_passing as replacement_passing
+from millsim.util.stats import binomial_interval
+
 from breakage_refs import (
     BREAKABLE,
     K_STEEL,
@@ -35,13 +43,6 @@ from breakage_refs import (
     ref_t10,
     ref_tn,
 )
-from scipy import stats
-
-from millsim.analysis import bed_impact as bed_analysis
-from millsim.models.breakage import tavares as tv
-from millsim.models.breakage import tavares_predictions as ver
-from millsim.models.breakage.replacement import product_passing as replacement_passing
-from millsim.util.stats import binomial_interval
 
 
 # ---- analysis: probabilities, medians, intervals --------------------------------------------

@@ -1,7 +1,7 @@
 """The scripts in examples/ run as a user runs them, and a scene from outside the package
 registers itself (``--scene-module``, the entry-point group ``millsim.scenes``).
 
-Both examples use the physics of tests/test_walls_integrators.py (3D, walls, linear_history), so
+Both examples use the physics of tests/test_wall_kinds.py (3D, walls, linear_history), so
 they share its compiled step loop in the kernel cache; a handful of particles, under 10 s warm.
 """
 

@@ -199,3 +199,38 @@ def test_a_drawn_cylinder_lies_at_its_radius_about_any_axis(axis):
     step = np.round(angles / 30.0)
     np.testing.assert_allclose(angles, 30.0 * step, atol=1e-6)
     assert set((step % 12).astype(int)) == set(range(12))
+
+
+@CHEAP
+@given(axis=unit_axis)
+@example(axis=(0.0, 0.0, 1.0))  # a drum about z, the usual set-up
+def test_a_plane_drawn_inside_a_drum_reaches_across_the_drum(axis):
+    """A plane along a drum's axis (a lifter face, a flat bottom) is drawn as a rectangle over
+    the drawn extent, which must take in the drum's cross-section and not only the particles
+    and its axis point: with one small particle on the axis, every point of the drum's circle
+    projects into the drawn rectangle (brute force: the circle's points in the rectangle's own
+    coordinates). Issue 47, seed 54 `wall_geometry:157` (the extent without the cylinder's
+    radius draws the plane 2 mm wide inside a 0.1 m drum)."""
+    a = np.asarray(axis) / np.linalg.norm(axis)
+    point, radius = np.array([0.1, -0.2, 0.3]), 0.05
+    n = np.cross(a, [0.3, 0.5, 0.7])
+    n /= np.linalg.norm(n)
+    sim = Simulation(PhysicsSpec(dim=3, walls=True), MaterialTable(
+        [Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3)}, "linear_history"),
+        x=[point], radius=[1e-3], material="m",
+        walls=[dict(kind="cylinder_inner", point=tuple(point), axis=tuple(a), radius=radius,
+                    material="m"),
+               dict(kind="plane", point=tuple(point - 0.5 * radius * n), normal=tuple(n),
+                    material="m")], gravity=(0, 0, 0))
+    drawn = WallTessellator(segments=12)(sim)
+    corners = drawn["points"][np.unique(drawn["cells"][drawn["wall"] == 1])]  # in drawing order
+    assert len(corners) == 4
+    e1 = corners[1] - corners[0]
+    e2 = corners[3] - corners[0]
+    assert abs(e1 @ e2) < 1e-12 and abs(e1 @ n) < 1e-12 and abs(e2 @ n) < 1e-12  # a rectangle
+    u = np.cross(n, a)  # with n, the drum's cross-section
+    phi = np.linspace(0.0, 2.0 * math.pi, 360, endpoint=False)
+    circle = point + radius * (np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * n)
+    rel = circle - corners[0]
+    s, t = rel @ e1 / (e1 @ e1), rel @ e2 / (e2 @ e2)
+    assert s.min() >= -1e-9 and s.max() <= 1 + 1e-9 and t.min() >= -1e-9 and t.max() <= 1 + 1e-9

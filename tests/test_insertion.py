@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 from millsim.engine import PhysicsSpec, Pour, Simulation, StepPolicy
 from millsim.models import Interaction, Material, MaterialTable
 
-# linear law with walls: the variant tests/test_walls_integrators.py compiles already
+# linear law with walls: the variant tests/test_wall_kinds.py compiles already
 SPEC = PhysicsSpec(dim=3, walls=True)
 BOX = 0.02
 RATE = 20000.0

@@ -33,7 +33,7 @@ from millsim.models import Interaction, Material, MaterialTable
 
 from helpers import clipped_damping_ratio
 
-# the spec and law tests/test_walls_integrators.py compiles for bounded walls: no new kernel
+# the spec and law tests/test_wall_kinds.py compiles for bounded walls: no new kernel
 SPEC = PhysicsSpec(dim=3, walls=True, bounded_walls=True)
 R = 1e-3  # particle radius [m]
 RHO = 2500.0
@@ -167,7 +167,7 @@ def test_particle_dropped_into_the_tube_settles_at_its_bottom():
 @pytest.mark.parametrize("restitution", [0.5, 0.9])
 def test_torus_rebound_with_the_laws_restitution(kind, restitution):
     """Head-on at the tube's outer equator, oblique axis: the normal velocity is reversed and
-    scaled by e (the clipped linear law's closed form, as tests/test_walls_integrators.py)."""
+    scaled by e (the clipped linear law's closed form, as tests/test_wall_kinds.py)."""
     a = np.array([1.0, -2.0, 2.0]) / 3.0
     p = np.array([0.002, 0.0, -0.001])
     ring, tube, v_n, gap = 0.02, 0.006, 0.2, 0.02 * R
