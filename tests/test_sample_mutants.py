@@ -69,10 +69,12 @@ def test_a_pooled_draw_is_uniform_over_the_sites_and_scored_as_one_pool():
     assert abs(share - expected) < 4 * (expected * (1 - expected) / 800) ** 0.5
     results = [dict(id=f"util/stats:{k}", module="util/stats", outcome=o)
                for k, o in enumerate(["killed", "survived", "killed"])]
-    results += [dict(id="engine/timestep:1", module="engine/timestep", outcome="killed")]
+    results += [dict(id="engine/timestep:1", module="engine/timestep", outcome="timeout")]
     table = sample_mutants.score_table(results, {}, {"outcome": "passed", "failing": []})
     pooled = next(line for line in table.splitlines() if line.startswith("| all, pooled"))
     assert pooled.split("|")[2:5] == [" 3 ", " 4 ", " 75 % "]
+    # the timeout counts as killed and is named as one
+    assert pooled.split("|")[6] == " 1 (engine/timestep:1) "
     assert "util/stats:1" in pooled
 
 

@@ -258,8 +258,9 @@ def score_table(results, equivalent, baseline, tests=None):
              f"fail there: {', '.join(baseline['failing']) or 'none'}.", "",
              *([f"Tests run against every mutant (not those importing its module): "
                 f"{', '.join(tests)}.", ""] if tests else []),
-             "| module | killed | non-equivalent | score | 95 % interval | equivalent | survivors |",
-             "|---|---|---|---|---|---|---|"]
+             "| module | killed | non-equivalent | score | 95 % interval | of the killed, timeouts "
+             "| equivalent | survivors |",
+             "|---|---|---|---|---|---|---|---|"]
     groups = [(module, by_module[module]) for module in sorted(by_module)]
     if len(groups) > 1:
         groups.append(("all, pooled", list(results)))
@@ -271,9 +272,13 @@ def score_table(results, equivalent, baseline, tests=None):
         high = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
         survivors = ", ".join((r["id"].split(":", 1)[1] if r["module"] == module else r["id"])
                               for r in counted if r["outcome"] == "survived") or "-"
+        # a timeout counts as killed (a hang), but on a loaded machine it can be the load: named
+        timeouts = [r["id"].split(":", 1)[1] if r["module"] == module else r["id"]
+                    for r in counted if r["outcome"] == "timeout"]
         eq = sum(r["id"] in equivalent for r in rows)
         score = f"{100 * k / n:.0f} %" if n else "-"
         lines.append(f"| {module} | {k} | {n} | {score} | {100 * low:.0f}-{100 * high:.0f} % | "
+                     f"{len(timeouts)}{' (' + ', '.join(timeouts) + ')' if timeouts else ''} | "
                      f"{eq} | {survivors} |")
     listed = [f"- `{i}`: {why}" for i, why in sorted(equivalent.items())]
     return "\n".join(lines + ["", "Equivalent mutants (by hand):", *(listed or ["- none"])]) + "\n"
