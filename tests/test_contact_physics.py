@@ -343,6 +343,36 @@ def test_sticking_tangential_force_is_mindlin_spring():
     np.testing.assert_allclose(-ft[early] / (v0 * t[early]), kt, rtol=0.01)
 
 
+@pytest.mark.parametrize("theta", [1e-3, 1e-2, 0.05])
+@pytest.mark.parametrize("tilt", [0.0, 0.7])
+def test_the_stored_spring_turns_with_the_contact_plane(theta, tilt):
+    """While a contact rolls round, its normal turns by theta between steps; the stored tangential
+    spring must turn with it (into the new tangent plane, its length kept: the convention of the
+    laws' shared spring kernel, models.contact.kernels, as MUSEN's): against the spring turned rigidly by
+    the normal's rotation (scipy), to O(theta^2) of its length, where a spring left as it was is
+    off by theta (issue 47, seed 55 `kernels:29`: the projection skipped). The kernel is called as
+    the pure function it is (no motion this step: dt = 0, no Coulomb limit)."""
+    from scipy.spatial.transform import Rotation
+
+    from millsim.models.contact.kernels import _spring_friction
+
+    n = np.array([0.2, -0.3, 0.9])
+    n /= np.linalg.norm(n)
+    h = np.cross(n, [1.0, 0.0, 0.0])
+    h *= 1e-6 / np.linalg.norm(h)  # a stored spring of 1 um in the old tangent plane
+    # rotation axis perpendicular to n: in the plane of n and h (tilt 0) or tilted out of it
+    axis = np.cos(tilt) * np.cross(n, h) / np.linalg.norm(np.cross(n, h)) + np.sin(tilt) * h / 1e-6
+    turn = Rotation.from_rotvec(theta * axis / np.linalg.norm(axis))
+    n1 = turn.apply(n)
+    hist = np.array([h])
+    kt = 1e3
+    f = _spring_friction.py_func(kt, 0.0, 1e9, 0.0, 0.0, 0.0, *n1, hist, 0, 0.0)
+    expected = turn.apply(h)
+    assert abs(hist[0] @ n1) < 1e-12 * 1e-6  # in the new tangent plane
+    np.testing.assert_allclose(hist[0], expected, rtol=0, atol=theta**2 * 1e-6)
+    np.testing.assert_allclose(f, -kt * hist[0], rtol=1e-12)
+
+
 # ---- normal Hertz force --------------------------------------------------------------------------
 
 def test_hertz_normal_force_unequal_radii_and_materials():

@@ -396,6 +396,33 @@ def test_lubrication_only_dissipates_and_the_audit_closes():
     np.testing.assert_allclose(ke0 - ke, d_n + d_t, rtol=0, atol=1e-5 * lost)
 
 
+def test_a_fluid_of_zero_viscosity_does_nothing_and_audits_zero():
+    """eta = 0 is allowed (a dry reference in a viscosity sweep): then the film has no force, no
+    torque and no dissipation, so the same unequal pair and sphere near a plane as above move
+    uniformly, spins unchanged, and both audit terms stay exactly 0, not NaN (issue 47, seed 55
+    `lubrication:218`: the wall's dissipation taking YB/YA where YA = 0 wrote NaN into the audit)."""
+    n = N_OBLIQUE
+    ai, aj, aw = A_S, A_L, 0.7e-3
+    xj = np.array([0.0, 0.0, 0.004])
+    x0 = np.array([xj + (ai + aj + 0.02 * 2 * A_S) * n, xj, [0.0, 0.005, aw + 0.01 * 2 * aw]])
+    u = 2e-3
+    v = np.array([-0.6 * u * n + [u, 0.5 * u, 0], 0.4 * u * n + [0, -u, 0.3 * u],
+                  [u, -0.5 * u, 0.0]])
+    w = np.array([[3.0, -2.0, 5.0], [-1.0, 4.0, 2.0], [2.0, 3.0, -4.0]])
+    # copies: the Simulation keeps (and advances) float64 arrays it is given
+    sim = make_sim(WET, x0.copy(), [ai, aj, aw], v=v.copy(), w=w.copy(), walls=[plane()], eta=0.0)
+    sim.set_time_step(1e-5)  # without a film the soft spring's bound is long: 2 ms in all
+    sim.run(200, chunk=50, threads=1)
+    p = sim.particles
+    assert np.array_equal(p.v, v) and np.array_equal(p.w, w)
+    np.testing.assert_allclose(p.x, x0 + v * sim.time, rtol=0, atol=1e-15)
+    audit = sim.energy_audit()
+    assert audit["lubrication_normal"] == 0.0 and audit["lubrication_tangential"] == 0.0
+    # the films were within reach all along (the test's premise)
+    assert np.linalg.norm(p.x[0] - p.x[1]) - ai - aj < H_MAX * 2 * A_S
+    assert p.x[2, 2] - aw < H_MAX * 2 * aw
+
+
 # ------------------------------------------------------------------------------------------------
 # 2. squeeze under a constant force, unequal spheres
 # ------------------------------------------------------------------------------------------------
