@@ -145,3 +145,18 @@ def test_an_interrupted_baseline_resumes_where_it_stopped(tmp_path, monkeypatch)
     assert calls == [["tests/b.py"], ["tests/c.py"], named]  # the rest of the baseline, a mutant
     done = json.loads(record.read_text())
     assert done["baseline"]["outcome"] == "passed" and len(done["baseline"]["seconds"]) == 3
+
+
+def test_the_scratch_tree_holds_every_part_of_the_repository_but_its_outputs():
+    """A mutant runs in a copy of the repository's parts (mutate.PARTS); a file a test reads that
+    the copy lacks fails the test for every mutant and counts as a kill (issue 47: test_habits
+    read LICENSE and the bench/ scripts the sources name, and failed in every scene mutant's
+    baseline). Every tracked top-level entry is copied but results/ (outputs) and .gitignore, so
+    a new one must be placed deliberately."""
+    import subprocess
+
+    import mutate
+
+    tracked = subprocess.run(["git", "-C", str(ROOT), "ls-tree", "--name-only", "HEAD"],
+                             capture_output=True, text=True, check=True).stdout.split()
+    assert set(tracked) - {"results", ".gitignore"} <= set(mutate.PARTS)

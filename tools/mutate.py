@@ -41,10 +41,12 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 MUTANTS = ROOT / "tools" / "mutants.yaml"
-# what the tests read besides the sources: the materials file, the shipped liner, the workflow and
-# the docs they check (a missing file would fail the test and count as a kill)
-PARTS = ("src", "tests", "config", "examples", "workflow", "profiles", "docs", "Snakefile",
-         "README.md", "pyproject.toml")
+# what the tests read besides the sources: the materials file, the shipped liner, the workflow,
+# the docs, the Makefile, tools and benchmarks they check or name, the licence and citation (a
+# missing file would fail the test and count as a kill); only results/ (outputs) stays behind
+PARTS = ("src", "tests", "config", "examples", "workflow", "profiles", "docs", "tools", "bench",
+         "requirements", ".ci", "Snakefile", "Makefile", "README.md", "pyproject.toml", "LICENSE",
+         "CITATION.cff")
 REQUIRED = ("id", "file", "find", "replace", "tests", "why")
 # Files with functions the compiled loop calls or inlines (a mutant there needs a fresh cache).
 COMPILED = ("src/millsim/engine/", "src/millsim/models/contact/", "src/millsim/models/lubrication.py",

@@ -16,8 +16,8 @@ draws ``--per-module`` of them with a fixed seed (the same sample every run, so 
 after a change compares the same mutants), and runs each against the test files that import its
 module (directly; for a module no test imports, the test files importing its nearest importer;
 for a scene, also the test files that name it).
-The tree each mutant runs in is a copy of ``src/``, ``tests/`` and what the tests read
-(``config/``, ``examples/``, the workflow, the docs: ``mutate.PARTS``); the unmutated copy runs
+The tree each mutant runs in is a copy of the repository but its outputs (``mutate.PARTS``:
+what the tests read besides ``src/`` and ``tests/``); the unmutated copy runs
 first (the baseline) and a test file that fails there is left out of every mutant's run and named
 in the report, so a missing file never counts as a kill.
 
