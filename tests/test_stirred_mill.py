@@ -211,10 +211,25 @@ def test_dry_scene_compiles_no_lubrication(tmp_path):
     (dict(filling=0.0), "filling"),
     (dict(filling=0.74), "filling"),
     (dict(filling=0.9), "filling"),
+    # an overlap past the smaller radius puts a centre inside the other bead: no guard at all
+    # (issue 47, seed 56 `stirred_mill:128`: the bound made 1.5 passed every test)
+    (dict(max_overlap=1.2), "max_overlap"),
 ])
 def test_bad_input_is_refused(override, match):
     with pytest.raises(ValueError, match=match):
         SCENE.resolve({k: str(v) for k, v in override.items()})
+
+
+def test_the_whole_chamber_holds_table_2s_void_and_bead_volume():
+    """At scale 1, the whole chamber (no slice) has the LabStar LS1 paper's Table 2 void volume,
+    0.910 l, and its default filling puts 0.393 l of beads in it (Table 2's bead volume; the seed
+    text, seeds/004 lines 357-362), to the table's last digit (0.0005 l) and one bead (issue 47, seed 56 `stirred_mill:93`: a void
+    volume 1.5x Table 2's passed every test)."""
+    from millsim.scenes.stirred_mill import geometry
+
+    g = geometry(SCENE.resolve({"slice": "false"}))
+    assert g["void_volume"] == pytest.approx(0.910e-3, rel=1e-12)
+    assert abs(g["n_beads"] * g["bead_volume"] - 0.393e-3) < 0.0005e-3 + g["bead_volume"]
 
 
 def test_bad_config_is_refused_by_the_schema_or_the_scene():
