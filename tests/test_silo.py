@@ -52,3 +52,14 @@ def test_impossible_silos_refused(override, message):
     load_all()
     with pytest.raises(ValueError, match=message):
         get_scene("silo").resolve(dict(SMALL, **override))
+
+
+def test_the_narrowest_and_widest_possible_orifices_are_accepted():
+    """The limits are geometric: an orifice a hair wider than a sphere passes it, one a hair
+    narrower than the silo is still a silo (issue 47, seed 56 `silo:63`: refusing below 3 radii
+    instead of 2 passed every test, whose refused orifice was below both)."""
+    load_all()
+    scene = get_scene("silo")
+    r = scene.resolve(dict(SMALL))["radius"]
+    for d in (2.0 * r * (1 + 1e-6), 2.0 * SMALL["silo_radius"] * (1 - 1e-6)):
+        assert scene.resolve(dict(SMALL, orifice_diameter=d))["orifice_diameter"] == d
