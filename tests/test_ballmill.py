@@ -158,3 +158,34 @@ def test_force_chain_variant_carries_no_breakage_outputs():
     assert outside.any() and np.isnan(p[outside]).all()
     assert np.isfinite(p).sum() > 0.25 * p.size and np.nanmin(p) >= 0
     assert ds.pressure.attrs["units"] == "Pa" and ds.chain_max_pressure.attrs["units"] == "Pa"
+
+
+def test_chain_statistics_count_each_chain_once_by_its_capped_length():
+    """Force-chain statistics (Buchholtz et al. 2000) from two hand-made
+    configurations: each chain counted once at its length (capped at max_length), the mean of the
+    chains' maximum pressure per length, and the mean load per relative position (bin of
+    floor(bins x position), the end in the last bin), all worked out here by plain loops (issue
+    47, seed 56 `force_chains:79`: each chain counted twice halved the mean pressures unnoticed)."""
+    from millsim.scenes.force_chains import chain_statistics
+
+    rng = np.random.default_rng(3)
+    load1, pressure1 = rng.uniform(1, 2, 12), rng.uniform(10, 20, 12)
+    load2, pressure2 = rng.uniform(1, 2, 12), rng.uniform(10, 20, 12)
+    chains1 = [np.array([0, 1, 2]), np.array([3, 4, 5, 6])]
+    chains2 = [np.array([7, 8, 9]), np.array([0, 2, 4, 6, 8, 10, 11])]  # 7 long: counted as 5
+    records = [(chains1, load1, pressure1), (chains2, load2, pressure2)]
+    out = chain_statistics(records, max_length=5, position_bins=2)
+    np.testing.assert_array_equal(out["lengths"], [3, 4, 5])
+    np.testing.assert_array_equal(out["count"], [2, 1, 1])
+    np.testing.assert_allclose(out["max_pressure"], [
+        (pressure1[:3].max() + pressure2[7:10].max()) / 2, pressure1[3:7].max(),
+        pressure2[chains2[1]].max()], rtol=1e-15)
+    sums, counts = np.zeros(2), np.zeros(2)
+    for chains, load, _ in records:
+        for chain in chains:
+            for k, grain in enumerate(chain):
+                b = min(int(2 * k / (len(chain) - 1)), 1)
+                sums[b] += load[grain]
+                counts[b] += 1
+    np.testing.assert_allclose(out["load_profile"], sums / counts, rtol=1e-14)
+    np.testing.assert_allclose(out["position"], [0.25, 0.75])
