@@ -220,11 +220,24 @@ def test_bad_input_is_refused(override, match):
         SCENE.resolve({k: str(v) for k, v in override.items()})
 
 
+@pytest.mark.parametrize("rpm,revolutions", [(3000.0, 2.0), (800.0, 0.5)])
+def test_the_start_up_lasts_the_time_of_its_revolutions_at_full_speed(rpm, revolutions):
+    """ramp_revolutions means the time of that many revolutions at the full rpm: n 60 / rpm
+    seconds, over which the agitator accelerates at a constant rate (turning through half of
+    them); issue 47, seed 56 `stirred_mill:187` (90 s per minute) passed every test."""
+    from millsim.scenes.stirred_mill import geometry
+
+    g = geometry(SCENE.resolve({"rpm": str(rpm), "ramp_revolutions": str(revolutions)}))
+    period = 1.0 / (rpm / 60.0)
+    assert g["ramp"] == pytest.approx(revolutions * period, rel=1e-12)
+    assert g["omega"] == pytest.approx(2 * PI / period, rel=1e-12)
+
+
 def test_the_whole_chamber_holds_table_2s_void_and_bead_volume():
     """At scale 1, the whole chamber (no slice) has the LabStar LS1 paper's Table 2 void volume,
     0.910 l, and its default filling puts 0.393 l of beads in it (Table 2's bead volume; the seed
-    text, seeds/004 lines 357-362), to the table's last digit (0.0005 l) and one bead (issue 47, seed 56 `stirred_mill:93`: a void
-    volume 1.5x Table 2's passed every test)."""
+    text, seeds/004 lines 357-362), to the table's last digit (0.0005 l) and one bead (issue 47,
+    seed 56 `stirred_mill:93`: a void volume 1.5x Table 2's passed every test)."""
     from millsim.scenes.stirred_mill import geometry
 
     g = geometry(SCENE.resolve({"slice": "false"}))
