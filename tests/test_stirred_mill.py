@@ -233,6 +233,31 @@ def test_the_start_up_lasts_the_time_of_its_revolutions_at_full_speed(rpm, revol
     assert g["omega"] == pytest.approx(2 * PI / period, rel=1e-12)
 
 
+def test_the_shaft_reaches_full_speed_after_the_start_up(tmp_path, monkeypatch):
+    """With a start-up (ramp_revolutions), the shaft (an analytic wall) follows the agitator's
+    constant acceleration chunk by chunk and then turns at the full rpm for the rest of the run:
+    every speed set on it rises, none exceeds rpm 2 pi / 60, and the last one is exactly that.
+    Before the fix the shaft stopped half a chunk short of the ramp's end, at 0.949 of its speed
+    here (issue 47, seed 56 `stirred_mill:456`: the mutant that kept updating it was the fix)."""
+    from millsim.scenes.stirred_mill import SHAFT_WALL
+
+    speeds = []
+    set_wall = Simulation.set_wall
+
+    def spy(sim, index, **change):
+        if index == SHAFT_WALL and "omega" in change:
+            speeds.append(change["omega"])
+        return set_wall(sim, index, **change)
+
+    monkeypatch.setattr(Simulation, "set_wall", spy)
+    values = SCENE.resolve({k: str(v) for k, v in dict(TINY, revolutions=1.0,
+                                                       ramp_revolutions=0.5).items()})
+    SCENE.run(values, RunContext(progress=False), out=tmp_path / "ramped.nc")
+    full = TINY["rpm"] * 2 * PI / 60
+    assert len(speeds) > 2 and np.all(np.diff(speeds) > 0) and max(speeds) <= full
+    assert speeds[-1] == full
+
+
 def test_the_whole_chamber_holds_table_2s_void_and_bead_volume():
     """At scale 1, the whole chamber (no slice) has the LabStar LS1 paper's Table 2 void volume,
     0.910 l, and its default filling puts 0.393 l of beads in it (Table 2's bead volume; the seed

@@ -21,6 +21,9 @@ for scheme in explicit implicit; do
     run stirred_mill --set scale=0.3 --set revolutions=0.05 --set transient_revolutions=0.0 \
         --set eta=0.1 --set lubrication_scheme=$scheme --out "$OUT/stir_$scheme.nc"
 done
+# a start-up ending inside a chunk: the shaft follows the agitator's ramp between chunks (scene code)
+run stirred_mill --set scale=0.3 --set revolutions=0.1 --set transient_revolutions=0.05 \
+    --set ramp_revolutions=0.045 --set eta=0.1 --out "$OUT/stir_ramp.nc"
 run bed_impact --set rings=2 --set layers=3 --out "$OUT/bed.nc"
 run ballmill2d --set duration=0.3 --set transient=0.1 --out "$OUT/bm.nc"
 run collision --set restitution=0.4 --out "$OUT/coll.nc"

@@ -428,6 +428,7 @@ class StirredMillCase(Case):
         self.start = energy_state(sim, self.k_n, self.k_t)
         self.window_start = None
         self.samples = 0
+        self.shaft_rate = 0.0  # the shaft's speed / full speed during the start-up
         if self.transient == 0:
             self._open_window()
 
@@ -453,11 +454,14 @@ class StirredMillCase(Case):
     def after_chunk(self):
         sim = self.sim
         ramp = self.g["ramp"]
-        if ramp and sim.time < ramp:
+        if ramp and self.shaft_rate < 1.0:
             # The shaft is an analytic wall with a constant surface speed: it follows the
-            # agitator body's ramp chunk by chunk, at the rate of the next chunk's middle.
+            # agitator body's ramp chunk by chunk, at the rate of the next chunk's middle, until
+            # it is at full speed (the ramp may end inside a chunk: half a chunk short of it, the
+            # shaft stayed at that speed for good).
             t_mid = sim.time + 0.5 * self.chunk() * sim.dt
-            sim.set_wall(SHAFT_WALL, omega=self.g["omega"] * min(1.0, t_mid / ramp))
+            self.shaft_rate = min(1.0, t_mid / ramp)
+            sim.set_wall(SHAFT_WALL, omega=self.g["omega"] * self.shaft_rate)
         if self.window_start is None:
             self._record()
             if sim.step >= self.transient:
