@@ -14,7 +14,9 @@ import xarray as xr
 
 from millsim import cli
 from millsim.cli import main
+from millsim.engine import PhysicsSpec, Simulation
 from millsim.io import write_case, write_netcdf
+from millsim.models import Interaction, Material, MaterialTable
 from millsim.util import interrupt
 
 
@@ -121,9 +123,6 @@ def test_every_law_takes_a_restitution_in_zero_to_one(law, dim):
     and refuses 0 and anything above 1 when the Simulation is built, naming the pair and the key
     (issue 47, seed 55 `hertz_mindlin:140`: the bound made 1.5 passed every test; the CLI's
     check ran the collision scene's linear_hw law only)."""
-    from millsim.engine import PhysicsSpec, Simulation
-    from millsim.models import Interaction, Material, MaterialTable
-
     def build(e):
         table = MaterialTable([Material("m", 2500.0, 1e7, 0.3)],
                               {"*": Interaction(restitution=e, normal_stiffness=1e3,

@@ -351,6 +351,20 @@ def test_pair_momentum_and_angular_momentum_balance(order):
         assert np.linalg.norm(T[0] + T[1]) > 0.05 * max(np.linalg.norm(T[0]), np.linalg.norm(T[1]))
 
 
+def _pair_and_sphere_near_a_plane():
+    """An unequal pair (oblique approach, sliding, spins) within each other's film and a sphere
+    sliding and spinning within the film of the plane z = 0: positions, velocities, spins, radii."""
+    n = N_OBLIQUE
+    ai, aj, aw = A_S, A_L, 0.7e-3
+    xj = np.array([0.0, 0.0, 0.004])
+    xi = xj + (ai + aj + 0.02 * 2 * A_S) * n
+    xw = np.array([0.0, 0.005, aw + 0.01 * 2 * aw])
+    u = 2e-3
+    v = [-0.6 * u * n + [u, 0.5 * u, 0], 0.4 * u * n + [0, -u, 0.3 * u], [u, -0.5 * u, -0.3 * u]]
+    w = [[3.0, -2.0, 5.0], [-1.0, 4.0, 2.0], [2.0, 3.0, -4.0]]
+    return [xi, xj, xw], v, w, [ai, aj, aw]
+
+
 def test_lubrication_only_dissipates_and_the_audit_closes():
     """An unequal pair (oblique approach, sliding, spins) and a sphere sliding and spinning near a
     fixed plane, no gravity, no contact: the kinetic energy never rises, both lubrication audit
@@ -360,16 +374,9 @@ def test_lubrication_only_dissipates_and_the_audit_closes():
     error; measured 6.0e-7 of the dissipated energy at this step (1.5e-7 at dt/2; the trapezoid
     starts from the power of the start state, evaluated before the first step); 1e-5 leaves a
     factor 17. A wrong sign or a lost term is an error of order 1 (each term is > 20 % of it)."""
-    n = N_OBLIQUE
-    ai, aj, aw = A_S, A_L, 0.7e-3
-    xj = np.array([0.0, 0.0, 0.004])
-    xi = xj + (ai + aj + 0.02 * 2 * A_S) * n
-    xw = np.array([0.0, 0.005, aw + 0.01 * 2 * aw])
-    u = 2e-3
-    v = [-0.6 * u * n + [u, 0.5 * u, 0], 0.4 * u * n + [0, -u, 0.3 * u], [u, -0.5 * u, -0.3 * u]]
-    w = [[3.0, -2.0, 5.0], [-1.0, 4.0, 2.0], [2.0, 3.0, -4.0]]
-    radius = [ai, aj, aw]
-    sim = make_sim(WET, [xi, xj, xw], radius, v=v, w=w, walls=[plane()])
+    x, v, w, radius = _pair_and_sphere_near_a_plane()
+    ai, aj, aw = radius
+    sim = make_sim(WET, x, radius, v=v, w=w, walls=[plane()])
     m = np.array([mass(a) for a in radius])
     inert = np.array([inertia(a) for a in radius])
 
@@ -401,21 +408,14 @@ def test_a_fluid_of_zero_viscosity_does_nothing_and_audits_zero():
     torque and no dissipation, so the same unequal pair and sphere near a plane as above move
     uniformly, spins unchanged, and both audit terms stay exactly 0, not NaN (issue 47, seed 55
     `lubrication:218`: the wall's dissipation taking YB/YA where YA = 0 wrote NaN into the audit)."""
-    n = N_OBLIQUE
-    ai, aj, aw = A_S, A_L, 0.7e-3
-    xj = np.array([0.0, 0.0, 0.004])
-    x0 = np.array([xj + (ai + aj + 0.02 * 2 * A_S) * n, xj, [0.0, 0.005, aw + 0.01 * 2 * aw]])
-    u = 2e-3
-    v = np.array([-0.6 * u * n + [u, 0.5 * u, 0], 0.4 * u * n + [0, -u, 0.3 * u],
-                  [u, -0.5 * u, 0.0]])
-    w = np.array([[3.0, -2.0, 5.0], [-1.0, 4.0, 2.0], [2.0, 3.0, -4.0]])
-    # copies: the Simulation keeps (and advances) float64 arrays it is given
-    sim = make_sim(WET, x0.copy(), [ai, aj, aw], v=v.copy(), w=w.copy(), walls=[plane()], eta=0.0)
+    x, v, w, radius = _pair_and_sphere_near_a_plane()
+    ai, aj, aw = radius
+    sim = make_sim(WET, x, radius, v=v, w=w, walls=[plane()], eta=0.0)
     sim.set_time_step(1e-5)  # without a film the soft spring's bound is long: 2 ms in all
     sim.run(200, chunk=50, threads=1)
     p = sim.particles
-    assert np.array_equal(p.v, v) and np.array_equal(p.w, w)
-    np.testing.assert_allclose(p.x, x0 + v * sim.time, rtol=0, atol=1e-15)
+    assert np.array_equal(p.v, np.array(v)) and np.array_equal(p.w, np.array(w))
+    np.testing.assert_allclose(p.x, np.array(x) + np.array(v) * sim.time, rtol=0, atol=1e-15)
     audit = sim.energy_audit()
     assert audit["lubrication_normal"] == 0.0 and audit["lubrication_tangential"] == 0.0
     # the films were within reach all along (the test's premise)

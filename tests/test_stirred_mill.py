@@ -26,7 +26,7 @@ from millsim.engine import Simulation
 from millsim.io import read_case
 from millsim.models import Interaction, Lubrication, Material, MaterialTable
 from millsim.scenes.base import RunContext, get_scene
-from millsim.scenes.stirred_mill import physics_spec
+from millsim.scenes.stirred_mill import SHAFT_WALL, geometry, physics_spec
 
 SCENE = get_scene("stirred_mill")
 PI = math.pi
@@ -225,8 +225,6 @@ def test_the_start_up_lasts_the_time_of_its_revolutions_at_full_speed(rpm, revol
     """ramp_revolutions means the time of that many revolutions at the full rpm: n 60 / rpm
     seconds, over which the agitator accelerates at a constant rate (turning through half of
     them); issue 47, seed 56 `stirred_mill:187` (90 s per minute) passed every test."""
-    from millsim.scenes.stirred_mill import geometry
-
     g = geometry(SCENE.resolve({"rpm": str(rpm), "ramp_revolutions": str(revolutions)}))
     period = 1.0 / (rpm / 60.0)
     assert g["ramp"] == pytest.approx(revolutions * period, rel=1e-12)
@@ -239,8 +237,6 @@ def test_the_shaft_reaches_full_speed_after_the_start_up(tmp_path, monkeypatch):
     every speed set on it rises, none exceeds rpm 2 pi / 60, and the last one is exactly that.
     Before the fix the shaft stopped half a chunk short of the ramp's end, at 0.949 of its speed
     here (issue 47, seed 56 `stirred_mill:456`: the mutant that kept updating it was the fix)."""
-    from millsim.scenes.stirred_mill import SHAFT_WALL
-
     speeds = []
     set_wall = Simulation.set_wall
 
@@ -263,8 +259,6 @@ def test_the_whole_chamber_holds_table_2s_void_and_bead_volume():
     0.910 l, and its default filling puts 0.393 l of beads in it (Table 2's bead volume; the seed
     text, seeds/004 lines 357-362), to the table's last digit (0.0005 l) and one bead (issue 47,
     seed 56 `stirred_mill:93`: a void volume 1.5x Table 2's passed every test)."""
-    from millsim.scenes.stirred_mill import geometry
-
     g = geometry(SCENE.resolve({"slice": "false"}))
     assert g["void_volume"] == pytest.approx(0.910e-3, rel=1e-12)
     assert abs(g["n_beads"] * g["bead_volume"] - 0.393e-3) < 0.0005e-3 + g["bead_volume"]
