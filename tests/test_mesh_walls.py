@@ -82,12 +82,14 @@ def turned(vertices, theta):
     return out
 
 
-def make_sim(spec, x, v=None, w=None, walls=(), friction=0.5, gravity=G, impact_speed=1.0):
+def make_sim(spec, x, v=None, w=None, walls=(), friction=0.5, gravity=G, impact_speed=1.0,
+             radius=R):
     mat = Material("m", RHO)
     table = MaterialTable([mat], {"*": Interaction(restitution=0.5, friction=friction,
                                                    normal_stiffness=K_N)}, "linear_history")
     n = len(x)
-    return Simulation(spec, table, x=np.asarray(x, float), radius=np.full(n, R), material="m",
+    return Simulation(spec, table, x=np.asarray(x, float),
+                      radius=np.broadcast_to(np.asarray(radius, float), n).copy(), material="m",
                       v=v, w=w, walls=list(walls), gravity=gravity, skin=0.2 * R,
                       step=StepPolicy(impact_speed=impact_speed))
 
@@ -442,3 +444,20 @@ def test_a_sphere_driven_past_the_overlap_guard_into_a_wall_stops_the_run_naming
                     gravity=(0, 0, 0), impact_speed=fast)
     slow.run(int(40 * R / fast / slow.dt), chunk=1000)
     assert slow.particles.v[0, 2] > 0
+
+
+def test_a_start_inside_a_mesh_wall_is_refused_by_the_overlap_relative_to_the_radius():
+    """Issue 47, seed 57 (`guards:34`, `guards:35`): the start-up check compares each sphere's
+    overlap with a mesh wall, as a fraction of its own radius, with the pairs' worst and the
+    guard (0.3 by default). Here a large sphere sinks 0.5 R into the plate (0.25 of its radius
+    2 R), a small one 0.4 R (0.4 of R), and a pair above the plate overlaps by 0.2 of R: only
+    the small sphere is past the guard, and the message names it with 0.4."""
+    x = [[-0.005, 0.0, 1.5 * R], [0.005, 0.0, 0.6 * R], [0.0, 0.005, 5 * R],
+         [1.8 * R, 0.005, 5 * R]]
+    wall = mesh_wall(*plate(2, 0.01, 0.004))
+    with pytest.raises(ValueError, match=r"initial state: particle 1 and a mesh wall overlap by "
+                                         r"0\.4 of the smaller radius, above max_overlap = 0\.3"):
+        make_sim(MESH_SPEC, x, walls=[wall], radius=[2 * R, R, R, R])
+    # the small sphere lifted to 0.8 R (0.2 of R): the worst is the large one's 0.25, accepted
+    x[1][2] = 0.8 * R
+    make_sim(MESH_SPEC, x, walls=[wall], radius=[2 * R, R, R, R])

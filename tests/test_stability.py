@@ -12,6 +12,8 @@ import pytest
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy, TimeStepError
 from millsim.models import Interaction, Lubrication, Material, MaterialTable, TavaresModel
 
+from one_particle import BODY_HERTZ, make_sim
+
 # The contact law comes with the material table (hertz_mindlin unless it names another), the
 # lubrication with the Simulation's fluid: the dry Hertz cases and the wet pair share one spec.
 HERTZ = PhysicsSpec(dim=3, walls=True, gravity=False, energy_audit=True)
@@ -77,6 +79,28 @@ def test_impact_faster_than_declared_is_stopped_naming_the_speed():
     with pytest.raises(SimulationError, match="impacts at 100 m/s.*declare impact_speed"):
         sim.run(20000, chunk=1000)
     assert np.isfinite(sim.particles.v).all()
+
+
+@pytest.mark.parametrize("declared, refused", [(1.01, False), (0.99, True)])
+def test_a_kinematic_body_adds_its_speed_to_the_impact_speed_the_guard_checks(declared, refused):
+    """Issue 47, seed 57 (`guards:55`): a free sphere at 0.1 m/s and a body sphere carried at
+    0.25 m/s (rate 25 rad/s, arm 0.01 m) can close at 0.35 m/s at most. With the step at its
+    limit for a declared impact speed, 1 % above 0.35 m/s passes and 1 % below stops the run
+    naming 0.35 m/s (the limit's 10 steps per contact shrink by (0.99)^(1/5))."""
+    from millsim.engine import SimulationError
+
+    rate, arm, u_free = 25.0, 0.01, 0.1
+    sim = make_sim(BODY_HERTZ, [[arm, 0.0, 0.0], [0.0, 0.05, 0.0]], v=[[0, 0, 0], [u_free, 0, 0]],
+                   body=[0, -1], bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(0, 0, 1),
+                                              rate=rate)],
+                   impact_speed=declared * (rate * arm + u_free))
+    sim.set_time_step(dt=sim.dt_report.limit)
+    if refused:
+        with pytest.raises(SimulationError, match=r"impacts at 0\.35 m/s"):
+            sim.run(30, chunk=10)
+    else:
+        sim.run(30, chunk=10)
+        assert np.linalg.norm(sim.particles.v[0]) == pytest.approx(rate * arm, rel=1e-12)
 
 
 def test_turning_plane_counts_its_surface_speed_at_the_particles():
