@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.engine.kinematics import CYLINDER_OUTER, W_KIND
@@ -37,13 +38,14 @@ BEAD_DENSITY = 6000.0
 ETA = 0.01  # Pa s
 
 
-def make_sim(x, radius, material, *, dt_factor=1.0, scheme="explicit", **kw):
+def make_sim(x, radius, material, *, dt_factor=1.0, scheme="explicit",
+             box=((-0.01, 0, 0), (0.02, 0, 0)), **kw):
     """The one place a Simulation is built here: wet periodic box along x, no gravity."""
     table = MaterialTable([Material("bead", BEAD_DENSITY), Material("steel", 7800.0)],
                           {"*": Interaction(restitution=0.5, friction=0.3, normal_stiffness=K_N)},
                           "linear_history")
     return Simulation(WET_PERIODIC, table, x=x, radius=radius, material=material, gravity=(0, 0, 0),
-                      box=((-0.01, 0, 0), (0.02, 0, 0)), step=StepPolicy(dt_factor=dt_factor),
+                      box=box, step=StepPolicy(dt_factor=dt_factor),
                       fluid=Lubrication(eta=ETA, h_min=0.001, h_max=0.05, scheme=scheme), **kw)
 
 
@@ -165,6 +167,53 @@ def test_drive_work_is_torque_times_rate_and_closes_the_energy_balance(kind):
         residuals.append((b["work"] - b["dK"] - b["dissipated"]) / b["work"])
     assert abs(residuals[0]) < 2e-3, residuals
     assert abs(residuals[1]) < abs(residuals[0]) / 2.5, residuals
+
+
+# x -> (2, 3, 6) / 7: an axis with three unequal components, so that a load component read in the
+# wrong place, or one of them left out, shows in the work
+TILT = Rotation.align_vectors([[2.0, 3.0, 6.0]], [X_AXIS])[0].as_matrix()
+WIDE_BOX = ((-0.05, 0, 0), (0.1, 0, 0))  # the tilted paddle reaches x = +-7 mm
+
+
+def tilted_drive_books(kind):
+    """The paddle above turned by TILT (rotate), or a pusher of two spheres moving along
+    TILT x at 0.5 m/s into a bead 0.2 mm ahead and 0.8 mm off its line (translate)."""
+    if kind == "rotate":
+        R = 8e-3
+        x = [[0, 0, -R], [0, 0, -R - 2 * A], [0, A + RB + 0.2e-3, -R - 0.8 * A]]
+        body = dict(kind="rotate", center=(0, 0, 0), axis=TILT @ X_AXIS, rate=PADDLE_RATE)
+    else:
+        x = [[0, 0, 0], [-2 * A, 0, 0], [A + RB + 0.2e-3, 0, 0.8 * A]]
+        body = dict(kind="translate", axis=TILT @ X_AXIS, rate=0.5)
+    sim = make_sim(np.asarray(x) @ TILT.T, [A, A, RB], ["steel", "steel", "bead"],
+                   body=[0, 0, -1], bodies=[body], box=WIDE_BOX)
+    K0 = kinetic_energy(sim)
+    steps = int(round(2.5e-3 / sim.dt))
+    sim.run(steps, chunk=steps, threads=1)
+    p = sim.particles
+    assert (np.linalg.norm(p.x[:2] - p.x[2], axis=1) - (A + RB)).min() > 0.05 * 2 * RB
+    load = sim.angular_impulse(body=0) if kind == "rotate" else sim.impulse(body=0)
+    return dict(rate=body["rate"], work=sim.work(body=0), along=float(load @ body["axis"]),
+                load=load, dK=kinetic_energy(sim) - K0,
+                dissipated=sum(sim.energy_audit().values()))
+
+
+@pytest.mark.parametrize("kind", ["rotate", "translate"])
+def test_a_body_books_its_work_about_a_tilted_axis(kind):
+    """Issue 47, seed 57 (`reductions:23`, `:32`, `:34`): a body whose axis has three unequal
+    components, (2, 3, 6) / 7. Its work is minus the load it received along the axis times its
+    rate (rel 1e-9: the same loads); no two of the load's components are within a tenth of the
+    largest (so one read in place of another shows); the work closes the energy balance with the
+    bead's kinetic energy and the audited dissipation within 2e-3 of the work (as above); and the
+    turned paddle does the work of the untilted one (the same collision turned; rel 1e-6)."""
+    b = tilted_drive_books(kind)
+    assert b["work"] > 0
+    assert b["work"] == pytest.approx(-b["along"] * b["rate"], rel=1e-9)
+    gaps = np.abs(b["load"][:, None] - b["load"][None, :])[np.triu_indices(3, 1)]
+    assert gaps.min() > 0.1 * np.abs(b["load"]).max()
+    assert abs(b["work"] - b["dK"] - b["dissipated"]) < 2e-3 * b["work"]
+    if kind == "rotate":
+        assert b["work"] == pytest.approx(drive_books("paddle", 1.0)["work"], rel=1e-6)
 
 
 def angular_momentum(sim):
