@@ -45,6 +45,23 @@ def test_start_in_equilibrium_stays_there():
     assert deviation < 1e-9
 
 
+def test_the_arrays_a_caller_gives_are_copied_not_advanced():
+    """A run advances the Simulation's own positions and velocities: the caller's x, v and w
+    (float64 arrays of the engine's own shape, which np.asarray would hand over as they are) keep
+    their values after a fall of 200 steps, while the Simulation's have moved."""
+    sim0, _ = _resting_sphere()
+    x = np.array([[0.0, 0.0, 0.01]])
+    v, w = np.array([[0.1, 0.0, 0.0]]), np.array([[0.0, 5.0, 0.0]])
+    given = [a.copy() for a in (x, v, w)]
+    sim = Simulation(sim0.spec, sim0.table, x=x, v=v, w=w, radius=[1e-3], material="m",
+                     gravity=(0, 0, -G), walls=[dict(kind="plane", point=(0, 0, 0),
+                                                     normal=(0, 0, 1), material="m")])
+    sim.run(200, chunk=200)
+    for a, b in zip((x, v, w), given):
+        np.testing.assert_array_equal(a, b)
+    assert sim.particles.x[0, 2] < 0.01 and sim.particles.x[0, 0] > 0.0
+
+
 ORE = Material("ore", 2700.0, 50e9, 0.25)
 STEEL = Material("steel", 7800.0, 210e9, 0.3)
 

@@ -20,7 +20,8 @@ from .state import (
 
 
 def vec3(a, n):
-    a = np.zeros((n, 3)) if a is None else np.asarray(a, dtype=float)
+    # a copy: the caller's array is never the one a run advances or a body's spin is written to
+    a = np.zeros((n, 3)) if a is None else np.array(a, dtype=float)
     if a.ndim == 2 and a.shape[1] == 2:
         a = np.column_stack([a, np.zeros(len(a))])
     return a.reshape(n, 3)
