@@ -18,9 +18,24 @@ from scipy.spatial.transform import Rotation
 
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.engine.events import room_for
-from millsim.engine.kinematics import (B_AX, B_CX, B_KIND, B_RAMP, B_RATE, BODY_COLUMNS, MESH,
-                                       ROTATE, TRANSLATE, W_KIND, W_ORIGIN, W_POINT, W_VELOCITY,
-                                       WALL_COLUMNS, body_pose, place_meshes)
+from millsim.engine.kinematics import (
+    B_AX,
+    B_CX,
+    B_KIND,
+    B_RAMP,
+    B_RATE,
+    BODY_COLUMNS,
+    MESH,
+    ROTATE,
+    TRANSLATE,
+    W_KIND,
+    W_ORIGIN,
+    W_POINT,
+    W_VELOCITY,
+    WALL_COLUMNS,
+    body_pose,
+    place_meshes,
+)
 from millsim.engine.state import disk_or_sphere_mass, moment_of_inertia
 from millsim.engine.stepping import sim_time_step_report
 from millsim.models import Interaction, Material, MaterialTable
