@@ -113,6 +113,8 @@ def test_same_seed_same_charge():
     (dict(radii=(1e-3,)), r"pour: give radii \(with fractions\) or radius_range, not both"),
     (dict(radius_range=(1e-3, 0.5e-3)), r"pour.radius_range: need 0 < min <= max"),
     (dict(radius_range=None, radii=(1e-3, 2e-3), fractions=(1.0,)), r"pour.fractions: one"),
+    (dict(radius_range=None, radii=(1e-3, 2e-3), fractions=(0.0, 0.0)), r"pour.fractions: one"),
+    (dict(radius_range=None, radii=(1e-3, 0.0)), r"pour.radii: must be > 0"),
     (dict(radius_range=(1e-3, 6e-3)), r"pour: the region .* is narrower than the largest"),
     (dict(rate=0.0), r"pour.rate"),
     (dict(count=0), r"pour.count"),
