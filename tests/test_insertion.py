@@ -101,6 +101,15 @@ def test_congested_region_carries_over_without_biasing_sizes():
     assert stats.kstest(sim.particles.radius, stats.uniform(0.5e-3, 0.5e-3).cdf).pvalue > 0.01
 
 
+def test_a_pour_not_yet_filled_is_behind_by_nothing():
+    """backlog counts the particles due at the last fill that did not fit: none before the first
+    fill, also after the first particle is placed for the Simulation (seed 57, `insertion:82`)."""
+    pour = _pour()
+    assert pour.backlog == 0
+    pour.first()
+    assert pour.backlog == 0
+
+
 def test_same_seed_same_charge():
     a, _ = _run(_pour(), t_end=0.005)
     b, _ = _run(_pour(), t_end=0.005)
