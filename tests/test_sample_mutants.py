@@ -50,6 +50,8 @@ def test_every_module_in_scope_has_test_files():
     lacking = [m for m in sample_mutants.modules() if not sample_mutants.test_files_for(m)]
     assert lacking == []
     assert "tests/test_silo.py" in sample_mutants.test_files_for("scenes/silo")
+    # through a package's re-export: test_insertion imports Pour from millsim.engine
+    assert "tests/test_insertion.py" in sample_mutants.test_files_for("engine/insertion")
 
 
 def test_a_pooled_draw_is_uniform_over_the_sites_and_scored_as_one_pool():

@@ -227,6 +227,15 @@ def test_files_for(module):
         package = name.rsplit(".", 1)[0] if p.name != "__init__.py" else name.removesuffix(
             ".__init__")
         sources[name.removesuffix(".__init__")] = _imports(p, package)
+    # a name a package re-exports (``from millsim.engine import Pour``) imports the module that
+    # defines it (engine/insertion): the package's __init__ imported it from there
+    defined_in = {}
+    for package, imported in sources.items():
+        for item in imported:
+            module, _, name = item.rpartition(".")
+            if module.startswith(package + ".") and module in sources:
+                defined_in[f"{package}.{name}"] = module
+    tests = {p: imp | {defined_in[i] for i in imp if i in defined_in} for p, imp in tests.items()}
     wanted, seen, hits = {dotted}, set(), []
     while wanted and not hits:
         hits = [p for p, imp in tests.items() if imp & wanted]
