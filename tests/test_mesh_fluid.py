@@ -49,8 +49,8 @@ def make_sim(x, v, w, walls, scheme="explicit", k_n=1e-6, restitution=1.0, frict
                       fluid=Lubrication(eta=ETA, h_min=H_MIN, h_max=H_MAX, scheme=scheme))
 
 
-def mesh(omega=0.0):
-    return dict(kind="mesh", vertices=VERTICES, faces=FACES, material="bead", omega=omega)
+def mesh(omega=0.0, **kw):
+    return dict(kind="mesh", vertices=VERTICES, faces=FACES, material="bead", omega=omega, **kw)
 
 
 def flat(omega=0.0):
@@ -107,6 +107,20 @@ def test_the_squeeze_film_at_a_meshed_plate_is_the_closed_form(place, gap):
     assert np.abs(T[0]).max() <= 1e-12 * scale * A
     if gap < 1.0:
         assert F[0, 2] > 0.9 * scale  # a film, pushing the sphere away from the plate
+
+
+def test_a_still_meshed_plate_s_film_does_not_depend_on_where_its_point_is():
+    """The wall's point is its frame's origin (the axis it would turn about), the triangles stay
+    where they are given: with the point at (3, -2, 1) mm the squeeze film at 0.2 h_max is the
+    closed form as above (issue 47, seed 57: `loop/mesh_fluid:33`, `:34`, the sphere's position
+    not taken relative to the point)."""
+    u0, h0 = 1e-3, 0.2 * H_MAX * 2 * A
+    sim = make_sim((*PLACES["face"], A + h0), (0.0, 0.0, -u0), (0.0, 0.0, 0.0),
+                   [mesh(point=(3e-3, -2e-3, 1e-3))])
+    F, T, x, F_ref, _ = one_step(sim, film_loads(0.0))
+    u = u0 - sim.dt * reynolds(A, h0, u0) / mass(A)
+    assert F[0, 2] == pytest.approx(reynolds(A, x[0, 2] - A, u), rel=1e-9)
+    assert np.abs(F[0, :2]).max() <= 1e-12 * F[0, 2]
 
 
 @pytest.mark.parametrize("place", PLACES)
