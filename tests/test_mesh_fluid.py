@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 from test_lubrication_engine import ETA, H_MAX, H_MIN, RHO, mass, one_step, wall_expected
 from test_mesh_walls import plate
 
@@ -49,8 +50,8 @@ def make_sim(x, v, w, walls, scheme="explicit", k_n=1e-6, restitution=1.0, frict
                       fluid=Lubrication(eta=ETA, h_min=H_MIN, h_max=H_MAX, scheme=scheme))
 
 
-def mesh(omega=0.0, **kw):
-    return dict(kind="mesh", vertices=VERTICES, faces=FACES, material="bead", omega=omega, **kw)
+def mesh(omega=0.0, vertices=VERTICES, **kw):
+    return dict(kind="mesh", vertices=vertices, faces=FACES, material="bead", omega=omega, **kw)
 
 
 def flat(omega=0.0):
@@ -121,6 +122,39 @@ def test_a_still_meshed_plate_s_film_does_not_depend_on_where_its_point_is():
     u = u0 - sim.dt * reynolds(A, h0, u0) / mass(A)
     assert F[0, 2] == pytest.approx(reynolds(A, x[0, 2] - A, u), rel=1e-9)
     assert np.abs(F[0, :2]).max() <= 1e-12 * F[0, 2]
+
+
+def test_the_film_over_the_first_triangle_is_the_closed_form():
+    """The sphere above the centroid of triangle 0 (the nearest, at no tie): the squeeze film
+    as above (seed 57, `loop/mesh_fluid:46`, the nearest triangle taken only from index 1 up)."""
+    u0, h0 = 1e-3, 0.2 * H_MAX * 2 * A
+    cx, cy, _ = VERTICES[FACES[0]].mean(0)
+    sim = make_sim((cx, cy, A + h0), (0.0, 0.0, -u0), (0.0, 0.0, 0.0), [mesh()])
+    F, _, x, _, _ = one_step(sim, film_loads(0.0))
+    u = u0 - sim.dt * reynolds(A, h0, u0) / mass(A)
+    assert F[0, 2] == pytest.approx(reynolds(A, x[0, 2] - A, u), rel=1e-9)
+
+
+def test_sliding_and_spin_at_a_tilted_meshed_plate_turn_with_it():
+    """The sliding-and-spin case below with the plate, the sphere's place and its velocities
+    all turned by one rotation (the normal z -> (6, 3, 2) / 7, about the origin): the film's
+    force and torque are the plate's law turned the same way, every component (seed 57,
+    `loop/mesh_fluid:61`: the torque's third component dropped, which a plate normal to z cannot
+    show)."""
+    turn = Rotation.align_vectors([[6.0, 3.0, 2.0]], [[0.0, 0.0, 1.0]])[0].as_matrix()
+    x0, v0, w0 = (np.array([*PLACES["face"], A + 0.01 * 2 * A]), np.array([2e-3, -1e-3, -0.5e-3]),
+                  np.array([3.0, -2.0, 5.0]))
+    sim = make_sim(turn @ x0, turn @ v0, turn @ w0, [mesh(vertices=VERTICES @ turn.T)])
+    plate_law = film_loads(0.0)
+
+    def turned(x, v, w):
+        F, T = plate_law(x @ turn, v @ turn, w @ turn)
+        return F @ turn.T, T @ turn.T
+
+    F, T, _, F_ref, T_ref = one_step(sim, turned)
+    np.testing.assert_allclose(F[0], F_ref[0], rtol=1e-9, atol=1e-9 * np.linalg.norm(F_ref[0]))
+    np.testing.assert_allclose(T[0], T_ref[0], rtol=1e-9, atol=1e-9 * np.linalg.norm(T_ref[0]))
+    assert abs(T_ref[0, 2]) > 0.1 * np.linalg.norm(T_ref[0])
 
 
 @pytest.mark.parametrize("place", PLACES)
