@@ -40,6 +40,8 @@ from millsim.engine.state import disk_or_sphere_mass, moment_of_inertia
 from millsim.engine.stepping import sim_time_step_report
 from millsim.models import Interaction, Material, MaterialTable
 
+from contact_refs import sphere_mass
+
 K = 1500.0  # N/m
 BODIES_3D = PhysicsSpec(dim=3, walls=True, bodies=True)
 
@@ -47,10 +49,6 @@ BODIES_3D = PhysicsSpec(dim=3, walls=True, bodies=True)
 def undamped_contact_time(m_eff, k):
     """Half a period of an undamped linear spring: pi sqrt(m_eff / k)."""
     return math.pi * math.sqrt(m_eff / k)
-
-
-def sphere_mass(r, density):
-    return density * 4.0 / 3.0 * math.pi * r**3
 
 
 def linear_table(body_stiffness=K):

@@ -110,29 +110,31 @@ def test_the_squeeze_film_at_a_meshed_plate_is_the_closed_form(place, gap):
         assert F[0, 2] > 0.9 * scale  # a film, pushing the sphere away from the plate
 
 
+def squeeze_at(cx, cy, wall, u0=1e-3, h0=0.2 * H_MAX * 2 * A):
+    """(the step's force, the closed form F_z of the test above) of a sphere approaching
+    ``wall`` at u0 from the gap h0 above (cx, cy)."""
+    sim = make_sim((cx, cy, A + h0), (0.0, 0.0, -u0), (0.0, 0.0, 0.0), [wall])
+    F, _, x, _, _ = one_step(sim, film_loads(0.0))
+    u = u0 - sim.dt * reynolds(A, h0, u0) / mass(A)
+    return F[0], reynolds(A, x[0, 2] - A, u)
+
+
 def test_a_still_meshed_plate_s_film_does_not_depend_on_where_its_point_is():
     """The wall's point is its frame's origin (the axis it would turn about), the triangles stay
     where they are given: with the point at (3, -2, 1) mm the squeeze film at 0.2 h_max is the
     closed form as above (issue 47, seed 57: `loop/mesh_fluid:33`, `:34`, the sphere's position
     not taken relative to the point)."""
-    u0, h0 = 1e-3, 0.2 * H_MAX * 2 * A
-    sim = make_sim((*PLACES["face"], A + h0), (0.0, 0.0, -u0), (0.0, 0.0, 0.0),
-                   [mesh(point=(3e-3, -2e-3, 1e-3))])
-    F, T, x, F_ref, _ = one_step(sim, film_loads(0.0))
-    u = u0 - sim.dt * reynolds(A, h0, u0) / mass(A)
-    assert F[0, 2] == pytest.approx(reynolds(A, x[0, 2] - A, u), rel=1e-9)
-    assert np.abs(F[0, :2]).max() <= 1e-12 * F[0, 2]
+    F, expected = squeeze_at(*PLACES["face"], mesh(point=(3e-3, -2e-3, 1e-3)))
+    assert F[2] == pytest.approx(expected, rel=1e-9)
+    assert np.abs(F[:2]).max() <= 1e-12 * F[2]
 
 
 def test_the_film_over_the_first_triangle_is_the_closed_form():
     """The sphere above the centroid of triangle 0 (the nearest, at no tie): the squeeze film
     as above (seed 57, `loop/mesh_fluid:46`, the nearest triangle taken only from index 1 up)."""
-    u0, h0 = 1e-3, 0.2 * H_MAX * 2 * A
     cx, cy, _ = VERTICES[FACES[0]].mean(0)
-    sim = make_sim((cx, cy, A + h0), (0.0, 0.0, -u0), (0.0, 0.0, 0.0), [mesh()])
-    F, _, x, _, _ = one_step(sim, film_loads(0.0))
-    u = u0 - sim.dt * reynolds(A, h0, u0) / mass(A)
-    assert F[0, 2] == pytest.approx(reynolds(A, x[0, 2] - A, u), rel=1e-9)
+    F, expected = squeeze_at(cx, cy, mesh())
+    assert F[2] == pytest.approx(expected, rel=1e-9)
 
 
 def test_sliding_and_spin_at_a_tilted_meshed_plate_turn_with_it():
