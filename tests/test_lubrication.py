@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from millsim.engine.oscillator_stability import stability_dt
 from millsim.models.lubrication import (
     check_lubrication_params,
     lubrication_dt_limit,
     pair_force_torque,
     pair_resistances,
-    stability_dt,
     wall_force_torque,
     wall_resistances,
 )

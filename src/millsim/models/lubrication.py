@@ -40,11 +40,11 @@ from ..engine.implicit import RW_VJ, row_absent, row_write
 from ..engine.jit_options import FAST
 from ..engine.kinematics import W_AX, W_OMEGA, W_PX
 from ..engine.models import FluidKernels, ParticleModel, stable_identity
+from ..engine.oscillator_stability import INTEGRATORS, stability_dt
 from ..engine.timestep import StepBound, TimeStepError
 
 PI = math.pi
 
-INTEGRATORS = ("verlet", "verlet_half_step", "gear")
 SCHEMES = ("explicit", "implicit", "auto")
 # scheme "auto": implicit where the explicit scheme's recommended step is more than this factor
 # below the contacts' one, else explicit. Per simulated time an implicit step costs 4-8x a dry step
@@ -313,71 +313,6 @@ def check_scheme(scheme, tolerance=TOLERANCE, max_iterations=MAX_ITERATIONS):
             or max_iterations < 1:
         raise ValueError(f"lubrication.max_iterations: must be an integer >= 1, got "
                          f"{max_iterations!r}")
-
-
-def _gear_map(W2, G):
-    """One step of the engine's 6-value Gear scheme (loop.py) on x'' = -w^2 x - g x' (dt = 1)."""
-    c0, c1, c3, c4, c5 = 3.0 / 16.0, 251.0 / 360.0, 11.0 / 18.0, 1.0 / 6.0, 1.0 / 60.0
-    m = np.empty((6, 6))
-    for k in range(6):
-        x, v, a, b, c, d = (1.0 if j == k else 0.0 for j in range(6))
-        x = x + v + a / 2 + b / 6 + c / 24 + d / 120
-        v = v + a + b / 2 + c / 6 + d / 24
-        a = a + b + c / 2 + d / 6
-        b = b + c + d / 2
-        c = c + d
-        ev = -W2 * x - G * v
-        da = ev - a
-        m[:, k] = (x + c0 * da / 2, v + c1 * da / 2, ev, b + 3 * c3 * da, c + 12 * c4 * da,
-                   d + 60 * c5 * da)
-    return m
-
-
-def _spectral_radius(m):
-    return float(np.max(np.abs(np.linalg.eigvals(m))))
-
-
-def _gear_dt(lambda_c, lambda_k):
-    """Smallest dt at which the Gear map on (lambda_k, lambda_c) goes unstable (scan + bisection)."""
-    tol = 1e-9
-
-    def stable(dt):
-        return _spectral_radius(_gear_map(lambda_k * dt * dt, lambda_c * dt)) <= 1.0 + tol
-
-    rate = lambda_c + math.sqrt(lambda_k)
-    lo = 1e-3 / rate
-    hi = lo
-    while stable(hi):
-        lo, hi = hi, hi * 1.05
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if stable(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
-def stability_dt(lambda_c, lambda_k, integrator="verlet"):
-    """Largest stable dt for x'' = -lambda_k x - lambda_c x' with the given integrator.
-
-    - ``verlet``: this engine's Verlet, whose velocity-dependent forces see v + dt a (loop.py):
-      lambda_k dt^2/4 + lambda_c dt <= 1 (damping alone: g dt <= 1).
-    - ``verlet_half_step``: classic velocity Verlet with the half-step velocity in the force
-      (LAMMPS/HLGD, lubrication.md 4.2): lambda_k dt^2/2 + lambda_c dt <= 2.
-    - ``gear``: this engine's 6-value Gear corrector, found numerically (damping alone:
-      g dt <= 0.1633).
-    """
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator: {integrator!r} is not one of {INTEGRATORS}")
-    if lambda_c < 0.0 or lambda_k < 0.0 or lambda_c + lambda_k <= 0.0:
-        raise ValueError(f"stability_dt: need lambda_c, lambda_k >= 0, not both 0; got "
-                         f"{lambda_c:g}, {lambda_k:g}")
-    if integrator == "verlet":
-        return 2.0 / (lambda_c + math.sqrt(lambda_c * lambda_c + lambda_k))
-    if integrator == "verlet_half_step":
-        return 4.0 / (lambda_c + math.sqrt(lambda_c * lambda_c + 4.0 * lambda_k))
-    return _gear_dt(lambda_c, lambda_k)
 
 
 @dataclass(frozen=True)
