@@ -40,10 +40,10 @@ def mesh_plate(lo, hi, material):
 FAR_PLATE = mesh_plate((-0.01, -0.01, -1.002), (0.01, 0.01, -1.0), "steel")
 
 
-def build(x, material, v, walls=(FAR_PLATE,), dt=2e-8, **interaction):
+def build(x, material, v, walls=(FAR_PLATE,), dt=2e-8, bins=BINS, **interaction):
     return Simulation(SPEC, table(**interaction), x=np.asarray(x, float),
                       radius=np.full(len(x), R), material=material, v=np.asarray(v, float),
-                      walls=list(walls), step=StepPolicy(dt=dt), spectra=BINS)
+                      walls=list(walls), step=StepPolicy(dt=dt), spectra=bins)
 
 
 def bin_of(energy):
@@ -83,6 +83,24 @@ def test_head_on_pair_is_one_collision_in_the_bin_of_its_analytic_loss():
     assert s.pair_energy[ORE, STEEL, 0] == pytest.approx(
         sim.energy_audit()["contact_normal_damping"], rel=1e-12)
     assert s.open_normal == 0.0 and s.open_tangential == 0.0
+
+
+@pytest.mark.parametrize("hi_over_loss, expected_bin", [(0.5, 5), (1.5, 4)])
+def test_the_highest_bins_a_collision_can_reach(hi_over_loss, expected_bin):
+    """Four bins from loss/100 to hi: the head-on pair's loss (1 - e^2) mu (2 v)^2 / 2, from the
+    spheres' densities, lands in the overflow bin (5) when hi is half of it and in the last
+    regular bin (4) when hi is 1.5 times it."""
+    e, v = 0.5, 0.5
+    m_ore, m_steel = (rho * 4.0 / 3.0 * math.pi * R ** 3 for rho in (2700.0, 7800.0))
+    loss = (1.0 - e * e) * m_ore * m_steel / (m_ore + m_steel) * (2 * v) ** 2 / 2
+    bins = SpectraBins(lo=loss / 100.0, hi=hi_over_loss * loss, n=4)
+    sim = build([[0, 0, 0], [2.005e-3, 0, 0]], ["ore", "steel"], [[v, 0, 0], [-v, 0, 0]],
+                bins=bins)
+    sim.run(2000)
+    s = sim.collision_spectra()
+    expected = np.zeros((2, 2, bins.n + 2), np.int64)
+    expected[ORE, STEEL, expected_bin] = 1
+    assert (s.pair_normal == expected).all()
 
 
 def test_oblique_sliding_pair_loses_the_closed_form_tangential_energy():

@@ -243,3 +243,38 @@ def test_the_clipped_convention_clips_the_normal_force_and_the_unclipped_does_no
     """Seed 57, `spec:96`."""
     assert PhysicsSpec(dim=3, convention="clipped").clip_normal
     assert not PhysicsSpec(dim=3, convention="unclipped").clip_normal
+
+
+# ---- particles made and added --------------------------------------------------------------------
+
+def test_a_turning_body_s_particles_spin_with_it_from_the_start_unless_it_ramps_up():
+    """A rotating body's particles spin at rate x axis as soon as they exist, a body that ramps up
+    from rest starts them at rest, a translating body's do not spin (the surfaces of a body's
+    particles move with the body; seed 57, `particles:75`)."""
+    rate, axis = 3.0, np.array([0.0, 0.6, 0.8])
+    x = [[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.05, 0.0, 0.0]]
+    for body_kind, ramp, spin in (("rotate", 0.0, rate * axis), ("rotate", 0.5, np.zeros(3)),
+                                  ("translate", 0.0, np.zeros(3))):
+        body = dict(kind=body_kind, center=(0, 0, 0), axis=tuple(axis), rate=rate, ramp=ramp)
+        spec = PhysicsSpec(dim=3, walls=True, bodies=True, ramped_walls=ramp > 0)
+        sim = Simulation(spec, linear_table(), x=x, radius=[1e-3] * 3, material="bead",
+                         body=[0, 0, -1], bodies=[body])
+        np.testing.assert_array_equal(sim.particles.w[:2], [spin, spin])
+        np.testing.assert_array_equal(sim.particles.w[2], np.zeros(3))
+
+
+def test_added_particles_get_the_next_ids_and_parents_that_exist():
+    """New particles are numbered on from the highest id; a parent is -1 or an id already given;
+    anything else is refused and leaves the particles as they were (seed 57, `particles:123`)."""
+    sim = Simulation(PhysicsSpec(dim=3, gravity=False), linear_table(),
+                     x=[[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]], radius=[1e-3] * 2, material="bead")
+    sim.add_particles([[0.02, 0.0, 0.0], [0.03, 0.0, 0.0]], [1e-3] * 2, "bead",
+                      parent_ids=[1, -1])
+    np.testing.assert_array_equal(sim.particle_ids, [0, 1, 2, 3])
+    np.testing.assert_array_equal(sim.parent_ids, [-1, -1, 1, -1])
+    for bad in ([-2], [4], [3, 1]):
+        with pytest.raises(ValueError, match="parent_ids: 1 ids of existing or earlier"):
+            sim.add_particles([[0.04, 0.0, 0.0]], [1e-3], "bead", parent_ids=bad)
+        assert sim.n_particles == 4
+    sim.add_particles([[0.04, 0.0, 0.0]], [1e-3], "bead", parent_ids=[3])
+    assert sim.particle_ids[-1] == 4 and sim.parent_ids[-1] == 3
