@@ -115,6 +115,28 @@ def test_named_tests_replace_the_importers_in_the_baseline_and_every_mutant(tmp_
         sample_mutants.main(argv[:-4])  # the same record, by import
 
 
+def test_a_mutant_runs_its_test_files_fastest_first(tmp_path, monkeypatch):
+    """Each mutant runs its files in the order of their baseline times (ties as given), so that
+    a kill by a quick file ends the run before the slow ones start."""
+    calls = []
+    seconds = {"tests/a.py": 30.0, "tests/b.py": 2.0, "tests/c.py": 9.0, "tests/d.py": 2.0}
+
+    def snapshot(ref, tree):
+        (tree / "src/millsim/util").mkdir(parents=True)
+        shutil.copy(ROOT / "src/millsim/util/stats.py", tree / "src/millsim/util/stats.py")
+
+    def run_tests(tree, tests, timeout, cache):
+        calls.append(list(tests))
+        return "survived", seconds[tests[0]] if len(tests) == 1 else 1.0, ""
+
+    monkeypatch.setattr(sample_mutants, "snapshot", snapshot)
+    monkeypatch.setattr(sample_mutants, "run_tests", run_tests)
+    argv = ["--module", "util/stats", "--per-module", "1", "--json", str(tmp_path / "r.json")]
+    argv += [a for t in seconds for a in ("--tests", t)]
+    assert sample_mutants.main(argv) == 0
+    assert calls[-1] == ["tests/b.py", "tests/d.py", "tests/c.py", "tests/a.py"]
+
+
 def test_an_interrupted_baseline_resumes_where_it_stopped(tmp_path, monkeypatch):
     """The baseline is kept file by file: stopped in its second file, the same command runs only
     the files not yet run, then the mutants."""
