@@ -278,3 +278,15 @@ def test_added_particles_get_the_next_ids_and_parents_that_exist():
         assert sim.n_particles == 4
     sim.add_particles([[0.04, 0.0, 0.0]], [1e-3], "bead", parent_ids=[3])
     assert sim.particle_ids[-1] == 4 and sim.parent_ids[-1] == 3
+
+
+def test_a_disk_given_a_three_dimensional_spin_keeps_only_its_spin_about_z():
+    """In 2D a disk spins about z only: the x and y of a given w are dropped, and the kinetic
+    energy is (m v^2 + I w_z^2) / 2 with m = rho pi r^2 t and I = m r^2 / 2."""
+    r, rho, v, wz = 2e-3, 6000.0, (0.1, 0.2, 0.0), 2.0
+    sim = Simulation(PhysicsSpec(dim=2, gravity=False), linear_table(), x=[[0.0, 0.0, 0.0]],
+                     radius=[r], material="bead", v=[v], w=[[4.0, -3.0, wz]])
+    np.testing.assert_array_equal(sim.particles.w, [[0.0, 0.0, wz]])
+    m = rho * math.pi * r * r * sim.thickness
+    expected = 0.5 * m * (v[0] ** 2 + v[1] ** 2) + 0.5 * (0.5 * m * r * r) * wz ** 2
+    assert sim.kinetic_energy() == pytest.approx(expected, rel=1e-12)
