@@ -123,6 +123,33 @@ def test_integrator_order_and_recurrence_in_compiled_loop(spec, recurrence):
     np.testing.assert_allclose(orders, 2.0, atol=0.1)
 
 
+def test_gear_turns_the_spin_as_it_moves_the_centre():
+    """A sphere at rest at its equilibrium overlap on a plane, sticking (friction 10), started
+    sideways at V: the tangential spring's force F (along x) and its torque -L F (about y, L the
+    lever) stay in a fixed ratio, so w_y' = k v_x' with k = -L m / I. The 6-value Gear is linear
+    and the same for spin and velocity (its slots start at zero, the start accelerations already
+    in that ratio), so w_y - k v_x must stay at its start value to rounding through the rocking,
+    and k lie between -R m / I and -(R - overlap) m / I (I = 2 m R^2 / 5). A wrong coefficient in
+    the spin's predictor or corrector alone breaks the ratio (seed 57, `integrators:67`, `68`,
+    `89`)."""
+    V = 0.01
+    g = XI_EQ * K_N / MASS
+    sim = make_sim(WALL_GEAR, [[0.0, 0.0, R - XI_EQ]], v=[[V, 0.0, 0.0]], restitution=1.0,
+                   friction=10.0, gravity=(0, 0, -g),
+                   walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")])
+    ratios = []
+    for _ in range(40):
+        sim.run(2, chunk=2)
+        dv = sim.particles.v[0, 0] - V
+        if abs(dv) > 0.1 * V:
+            ratios.append(sim.particles.w[0, 1] / dv)
+    assert abs(sim.particles.v[0, 0] - V) > 0.5 * V  # rocked well away from the start
+    assert len(ratios) > 10
+    np.testing.assert_allclose(ratios, ratios[0], rtol=1e-10)
+    inertia = 0.4 * MASS * R * R
+    assert -R * MASS / inertia <= ratios[0] <= -(R - XI_EQ) * MASS / inertia
+
+
 def test_verlet_phase_error_constant():
     """Undamped (e = 1): velocity Verlet from rest gives y_n = y0 cos(n theta), cos theta =
     1 - (w dt)^2/2, so theta = w dt (1 + (w dt)^2/24 + ...): at t = 2.25 T (where cos w t = 0)
