@@ -1,5 +1,6 @@
 """Largest stable step of the engine's explicit integrators on the damped linear oscillator
-x'' = -lambda_k x - lambda_c x' (docs/lubrication.md, "Stability"; reference/lubrication.md 4.2-4.5).
+x'' = -lambda_k x - lambda_c x' (docs/lubrication.md, "Time step (explicit scheme)";
+reference/lubrication.md 4.2-4.5).
 
 The fluid models' step bounds come from here: lubrication is a damping rate lambda_c, the contact
 spring a rate lambda_k. ``verlet_half_step`` is not an engine integrator: it is classic velocity
@@ -17,7 +18,6 @@ INTEGRATORS = ("verlet", "verlet_half_step", "gear")
 
 def _gear_map(W2, G):
     """One step of the engine's 6-value Gear scheme (integrators.gear_*) on x'' = -w^2 x - g x' (dt = 1)."""
-    c0, c1, c3, c4, c5 = GEAR_C0, GEAR_C1, GEAR_C3, GEAR_C4, GEAR_C5
     m = np.empty((6, 6))
     for k in range(6):
         x, v, a, b, c, d = (1.0 if j == k else 0.0 for j in range(6))
@@ -28,8 +28,8 @@ def _gear_map(W2, G):
         c = c + d
         ev = -W2 * x - G * v
         da = ev - a
-        m[:, k] = (x + c0 * da / 2, v + c1 * da / 2, ev, b + 3 * c3 * da, c + 12 * c4 * da,
-                   d + 60 * c5 * da)
+        m[:, k] = (x + GEAR_C0 * da / 2, v + GEAR_C1 * da / 2, ev, b + 3 * GEAR_C3 * da,
+                   c + 12 * GEAR_C4 * da, d + 60 * GEAR_C5 * da)
     return m
 
 
@@ -61,7 +61,7 @@ def _gear_dt(lambda_c, lambda_k):
 def stability_dt(lambda_c, lambda_k, integrator="verlet"):
     """Largest stable dt for x'' = -lambda_k x - lambda_c x' with the given integrator.
 
-    - ``verlet``: this engine's Verlet, whose velocity-dependent forces see v + dt a (loop.py):
+    - ``verlet``: this engine's Verlet, whose velocity-dependent forces see v + dt a (engine.integrators):
       lambda_k dt^2/4 + lambda_c dt <= 1 (damping alone: g dt <= 1).
     - ``verlet_half_step``: classic velocity Verlet with the half-step velocity in the force
       (LAMMPS/HLGD, lubrication.md 4.2): lambda_k dt^2/2 + lambda_c dt <= 2.
