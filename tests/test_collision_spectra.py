@@ -8,6 +8,8 @@ file (a far mesh plate keeps the wall bundle's type where a case needs no mesh).
 """
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -257,6 +259,19 @@ def test_resume_from_a_checkpoint_gives_the_same_spectra(tmp_path):
     resumed.run(1500, chunk=500)
     same(sim.collision_spectra(), resumed.collision_spectra())
     assert sim.collision_spectra().pair_collisions.sum() > 0
+
+
+def test_the_default_bins_are_the_documented_ones():
+    """docs/engine.md states the bins a Simulation gets when none are given."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "engine.md").read_text()
+    lo, hi, n = re.search(r"spectra=SpectraBins\(lo=([^,]+), hi=([^,]+), n=(\d+)\)\)`\s*"
+                          r"\(J; the default\)", text).groups()
+    documented = SpectraBins(float(lo), float(hi), int(n))
+    assert SpectraBins() == documented
+    sim = Simulation(SPEC, table(), x=np.zeros((1, 3)), radius=[R], material="ore",
+                     walls=[FAR_PLATE])
+    assert sim.spectra_bins == documented
+    assert sim.collision_spectra().pair_normal.shape == (2, 2, int(n) + 2)
 
 
 def test_refusals_name_the_key():

@@ -3,6 +3,8 @@
 - Each fault is refused with one line naming the file and the fault: a missing file, garbage, a
   NaN vertex, a zero-area triangle, an open mesh, an inverted box, one flipped triangle, scale 0.
 - ASCII and binary STL of one box read back to the same triangles; scale multiplies coordinates.
+- Rays meet a box first where its planes say, through a face, an edge or a vertex (every vertex
+  lies on triangles' boundaries only), leaving it from inside and entering from outside.
 - The liner (with and without lifters) read back is a closed solid whose volume is the area
   between its profile polygons (shoelace, built here from radius and segments) times its
   length, with inner normals towards the axis and end faces without folds.
@@ -14,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from millsim.engine.mesh_io import box_mesh, liner_mesh, read_mesh, write_stl
+from millsim.engine.mesh_io import box_mesh, first_hits, liner_mesh, read_mesh, write_stl
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "meshes" / "ballmill_liner.stl"
 
@@ -124,6 +126,32 @@ def test_box_is_closed_outward():
     assert len(f) == 12 and signed_volume(v, f) == pytest.approx(48.0, rel=1e-15)
     # each face's normal points from the box's centre to the face's centroid
     assert (np.einsum("ij,ij->i", normals(v, f), v[f].mean(axis=1)) > 0).all()
+
+
+def test_rays_meet_a_box_where_its_planes_say_through_faces_edges_and_vertices():
+    """Box [0, 2]^3, rays from its centre to every vertex (distance sqrt(3)), to the middle of
+    every edge (sqrt(2)) and of every face (1), each on triangles' edges only, all leaving the
+    solid; rays from outside entering it (the first of the two faces they cross); one passing
+    by. Distances by the planes of the box, here."""
+    vertices, faces = box_mesh((0, 0, 0), (2, 2, 2))
+    centre = np.ones(3)
+    corners = np.array([[x, y, z] for x in (0, 2) for y in (0, 2) for z in (0, 2)], float)
+    edges = np.unique([(a + b) / 2 for a in corners for b in corners
+                       if np.abs(a - b).sum() == 2], axis=0)
+    face_centres = np.array([centre + s * e for e in np.eye(3) for s in (-1, 1)])
+    targets = np.vstack([corners, edges, face_centres])
+    assert len(edges) == 12
+    d = targets - centre
+    dist, leaving = first_hits(vertices, faces, np.tile(centre, (len(d), 1)),
+                               d / np.linalg.norm(d, axis=1)[:, None])
+    expected = np.repeat([math.sqrt(3), math.sqrt(2), 1.0], [8, 12, 6])
+    np.testing.assert_allclose(dist, expected, rtol=1e-12)
+    assert leaving.all()
+    origins = np.array([[1.0, 1.0, -3.0], [5.0, 0.5, 1.5], [1.0, 1.0, 5.0]])
+    directions = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    dist, leaving = first_hits(vertices, faces, origins, directions)
+    np.testing.assert_allclose(dist[:2], [3.0, 3.0], rtol=1e-12)
+    assert dist[2] == math.inf and not leaving.any()
 
 
 def test_ascii_and_binary_read_back_the_same(tmp_path):
