@@ -247,3 +247,12 @@ def test_liner_refuses_lifters_that_do_not_fit():
         liner_mesh(R, LENGTH, lifters=8, lifter_height=0.01, lifter_width=0.1)
     with pytest.raises(ValueError, match="do not fit"):
         liner_mesh(R, LENGTH, lifters=8, lifter_height=R, lifter_width=0.01)
+
+
+@pytest.mark.parametrize("kw", [dict(radius=0.0, thickness=0.01), dict(radius=-R),
+                                dict(length=0.0), dict(thickness=0.0), dict(segments=7)])
+def test_liner_refuses_a_degenerate_shell(kw):
+    args = dict(dict(radius=R, length=LENGTH), **kw)
+    with pytest.raises(ValueError, match="^liner_mesh: need radius, length, thickness > 0 and "
+                                         "segments >= 8"):
+        liner_mesh(args.pop("radius"), args.pop("length"), **args)
