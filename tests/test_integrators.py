@@ -42,14 +42,19 @@ XI_EQ = 0.1 * R  # equilibrium overlap under the pressing force
 AMP = 0.5 * XI_EQ  # initial extra compression: the contact never opens (clip irrelevant)
 
 
+def _on_the_plane(spec, z, restitution, **kw):
+    """A particle at height z over the plane z = 0, pressed into it by a body force (gravity
+    scaled so that the equilibrium overlap is XI_EQ = 0.1 R)."""
+    return make_sim(spec, [[0.0, 0.0, z]], restitution=restitution,
+                    gravity=(0, 0, -XI_EQ * K_N / MASS),
+                    walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")],
+                    **kw)
+
+
 def _oscillator(spec, restitution, dt, checked=True):
-    """A particle pressed into the plane z = 0 by a body force (gravity scaled so that the
-    equilibrium overlap is 0.1 R), started at rest AMP below equilibrium: y = z - z_eq obeys
+    """The particle on the plane, started at rest AMP below equilibrium: y = z - z_eq obeys
     y'' = -w0^2 y - 2 zeta w0 y' while in contact. Returns the simulation and zeta."""
-    g = XI_EQ * K_N / MASS
-    z_eq = R - XI_EQ
-    sim = make_sim(spec, [[0.0, 0.0, z_eq - AMP]], restitution=restitution, gravity=(0, 0, -g),
-                   walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")])
+    sim = _on_the_plane(spec, R - XI_EQ - AMP, restitution)
     # The engine evaluates the start state's force (contact included) before the first step:
     # the scheme starts from the exact initial acceleration W0^2 AMP.
     if checked:
@@ -133,10 +138,7 @@ def test_gear_turns_the_spin_as_it_moves_the_centre():
     the spin's predictor or corrector alone breaks the ratio (seed 57, `integrators:67`, `68`,
     `89`)."""
     V = 0.01
-    g = XI_EQ * K_N / MASS
-    sim = make_sim(WALL_GEAR, [[0.0, 0.0, R - XI_EQ]], v=[[V, 0.0, 0.0]], restitution=1.0,
-                   friction=10.0, gravity=(0, 0, -g),
-                   walls=[dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="m")])
+    sim = _on_the_plane(WALL_GEAR, R - XI_EQ, 1.0, v=[[V, 0.0, 0.0]], friction=10.0)
     ratios = []
     for _ in range(40):
         sim.run(2, chunk=2)
