@@ -19,6 +19,8 @@ import pytest
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
+from millsim.engine.oscillator_stability import stability_dt
+
 from helpers import clipped_damping_ratio
 from one_particle import (
     BODY_HERTZ,
@@ -169,13 +171,33 @@ def test_verlet_phase_error_constant():
 
 # ---- 2. stability bounds -----------------------------------------------------------------------
 
-def _gear_spectral_radius(h, c=GEAR_TEXTBOOK):
-    """Largest |eigenvalue| of one Gear step (scaled form) on y'' = -w^2 y, h = w dt."""
+def _gear_spectral_radius(h, c=GEAR_TEXTBOOK, damping=0.0):
+    """Largest |eigenvalue| of one Gear step (scaled form) on y'' = -w^2 y - g y', h = w dt,
+    damping = g dt (the force at the predicted position and velocity, p1 = v dt)."""
     pascal = np.array([[math.comb(j, k) for j in range(6)] for k in range(6)], dtype=float)
-    # Delta = a dt^2/2 - p2 = -(h^2/2) p0 - p2
-    delta = np.array([-h * h / 2, 0.0, -1.0, 0.0, 0.0, 0.0])
+    # Delta = a dt^2/2 - p2 = -(h^2/2) p0 - (g dt / 2) p1 - p2
+    delta = np.array([-h * h / 2, -damping / 2, -1.0, 0.0, 0.0, 0.0])
     step = (np.eye(6) + np.outer(c, delta)) @ pascal
     return max(abs(np.linalg.eigvals(step)))
+
+
+@pytest.mark.parametrize("lambda_c, lambda_k", [(0.0, 1.0), (1.0, 0.0), (3.0, 7.0), (1e3, 1e8)])
+def test_gear_stability_dt_is_where_the_textbook_gear_step_turns_unstable(lambda_c, lambda_k):
+    """engine.oscillator_stability.stability_dt(..., "gear") (the step the lubrication limit
+    quotes) against the first dt at which the Gear step coded here from the textbook
+    coefficients grows (spectral radius above 1 + 1e-9, the function's own margin): a grid then
+    brentq. Undamped w dt = 0.3130, damped only g dt = 0.1633 (docs/lubrication.md)."""
+    def excess(dt):
+        return _gear_spectral_radius(math.sqrt(lambda_k) * dt, damping=lambda_c * dt) - 1 - 1e-9
+
+    grid = np.linspace(1e-3, 1.0, 2000) / (lambda_c + math.sqrt(lambda_k))
+    first = next(k for k, dt in enumerate(grid) if excess(dt) > 0)
+    dt_star = brentq(excess, grid[first - 1], grid[first], xtol=1e-15 * grid[first])
+    assert stability_dt(lambda_c, lambda_k, "gear") == pytest.approx(dt_star, rel=1e-7)
+    if lambda_c == 0.0:
+        assert dt_star * math.sqrt(lambda_k) == pytest.approx(0.3130, abs=5e-4)
+    if lambda_k == 0.0:
+        assert dt_star * lambda_c == pytest.approx(0.1633, abs=5e-4)
 
 
 def _window_amplitude(sim, steps):

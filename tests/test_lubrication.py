@@ -447,7 +447,8 @@ def test_stability_dt_closed_forms():
     pure damping g dt <= 1 (this engine's Verlet: the force sees v + dt a, eigenvalue -1 at
     g dt = 1) and <= 2 (half-step Verlet); a pure spring w dt <= 2 for both. The Gear value has no
     closed form: it is checked against the compiled Gear corrector in
-    tests/test_lubrication_engine.py."""
+    tests/test_lubrication_engine.py and against the textbook Gear step in
+    tests/test_integrators.py."""
     np.testing.assert_allclose(stability_dt(1.0, 0.0, "verlet"), 1.0, rtol=1e-15)
     np.testing.assert_allclose(stability_dt(1.0, 0.0, "verlet_half_step"), 2.0, rtol=1e-15)
     np.testing.assert_allclose(stability_dt(0.0, 4.0, "verlet"), 1.0, rtol=1e-15)
