@@ -2,7 +2,8 @@
 the closest point of a triangle (dense barycentric sampling), the distance to a frustum sheet
 (dense sampling of the surface of revolution), the cells a neighbour search visits along an axis
 (every point within reach falls in one of them), the pour's clearance (pairwise distances), and
-a drawn cylinder wall about any axis (the distance of its vertices from the axis line).
+a drawn cylinder wall and a drawn frustum about any axis (the distance of its vertices from the
+axis line, their position along it).
 
 Derandomized and few examples: deterministic and cheap in CI; the kernels are the compiled ones,
 called from Python.
@@ -199,6 +200,34 @@ def test_a_drawn_cylinder_lies_at_its_radius_about_any_axis(axis):
     step = np.round(angles / 30.0)
     np.testing.assert_allclose(angles, 30.0 * step, atol=1e-6)
     assert set((step % 12).astype(int)) == set(range(12))
+
+
+@CHEAP
+@given(axis=unit_axis, z0=st.floats(-0.05, 0.05), r0=st.sampled_from([0.0, 0.01, 0.03]),
+       dz=st.floats(0.005, 0.05), r1=st.sampled_from([0.0, 0.02]))
+@example(axis=(0.0, 0.0, 1.0), z0=0.02, r0=0.0, dz=0.03, r1=0.02)  # a cone's tip off the point
+def test_a_drawn_frustum_lies_on_its_sheet_about_any_axis(axis, z0, r0, dz, r1):
+    """The drawing of a frustum wall (a cone where a radius is 0): every vertex lies on one of
+    its rims, at axial position z0 or z0 + dz from the wall's point and at that rim's radius
+    from the axis line (brute force: the projections), both rims present."""
+    if r0 == 0.0 and r1 == 0.0:
+        r1 = 0.02
+    a = np.asarray(axis) / np.linalg.norm(axis)
+    point = np.array([0.1, -0.2, 0.3])
+    sim = Simulation(PhysicsSpec(dim=3, walls=True, bounded_walls=True), MaterialTable(
+        [Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3)}, "linear_history"),
+        x=[point + 0.5 * (2 * z0 + dz) * a], radius=[1e-3], material="m",
+        walls=[dict(kind="frustum", point=tuple(point), axis=tuple(a), start=(z0, r0),
+                    end=(z0 + dz, r1), material="m")], gravity=(0, 0, 0))
+    drawn = WallTessellator(segments=12)(sim)["points"]
+    off = drawn - point
+    along = off @ a
+    across = np.linalg.norm(off - along[:, None] * a, axis=1)
+    start = np.isclose(along, z0, rtol=0, atol=1e-12)
+    end = np.isclose(along, z0 + dz, rtol=0, atol=1e-12)
+    assert (start | end).all() and start.any() and end.any()
+    np.testing.assert_allclose(across[start], r0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(across[end], r1, rtol=0, atol=1e-12)
 
 
 @CHEAP

@@ -26,10 +26,13 @@ from test_conventions import BALLMILL
 from millsim.cli import main
 from millsim.engine import PhysicsSpec, Simulation, StepPolicy
 from millsim.engine.mesh_io import box_mesh
+from millsim.engine.wall_geometry import pair_contact_forces
 from millsim.io import SNAPSHOT_UNITS, SnapshotWriter
 from millsim.models import Interaction, Material, MaterialTable
 from millsim.scenes import base
 from millsim.scenes.base import RunContext
+
+from helpers import clipped_damping_ratio
 
 R = 1e-3
 RHO = 2500.0
@@ -38,6 +41,7 @@ MASS = RHO * 4.0 / 3.0 * math.pi * R**3
 G = 9.81
 DRUM = 5 * R  # the shell's radius
 OMEGA = 20.0  # the mesh paddle's rate [rad/s]
+PADDLE = (1.5 * R, -0.5 * R, 12 * R), (3.5 * R, 0.5 * R, 13 * R)  # its box at t = 0 (axis z)
 
 
 def _stack_sim(mesh=True):
@@ -47,7 +51,7 @@ def _stack_sim(mesh=True):
              dict(kind="cylinder_inner", point=(0, 0, 0), axis=(0, 0, 1), radius=DRUM,
                   material="m")]
     if mesh:
-        vertices, faces = box_mesh((1.5 * R, -0.5 * R, 12 * R), (3.5 * R, 0.5 * R, 13 * R))
+        vertices, faces = box_mesh(*PADDLE)
         walls.append(dict(kind="mesh", vertices=vertices, faces=faces, point=(0, 0, 0),
                           axis=(0, 0, 1), omega=OMEGA, material="m"))
     table = MaterialTable([Material("m", RHO)], {"*": Interaction(
@@ -139,18 +143,14 @@ def test_a_turning_mesh_is_written_at_its_angle_of_each_frame(stack):
     path, _, times = stack
     with h5py.File(path) as h5:
         frames = [_cell_grid(h5, grid) for _, grid in _grids(path.with_suffix(".xdmf"))["walls"]]
-    first = None
+    box = box_mesh(*PADDLE)[0]  # its vertices at t = 0, in the drawing's order
     for t, (_, points, cells, attributes) in zip(times, frames):
         paddle = points[np.unique(cells[attributes["wall"] == 2])]
         assert len(paddle) == 8
-        if first is None:
-            first, t0 = paddle, t
-            continue
-        a = OMEGA * (t - t0)
-        turned = np.column_stack([first[:, 0] * math.cos(a) - first[:, 1] * math.sin(a),
-                                  first[:, 0] * math.sin(a) + first[:, 1] * math.cos(a),
-                                  first[:, 2]])
-        assert a > 0.01
+        a = OMEGA * t
+        turned = np.column_stack([box[:, 0] * math.cos(a) - box[:, 1] * math.sin(a),
+                                  box[:, 0] * math.sin(a) + box[:, 1] * math.cos(a), box[:, 2]])
+        assert a > 0.5  # 0.6 rad at the first frame, 0.04 rad more at each
         np.testing.assert_allclose(paddle, turned, atol=1e-12)
 
 
@@ -177,6 +177,45 @@ def test_contact_forces_carry_the_weight_above_and_follow_the_law(stack):
                     lower[2] + R - c["overlap"][q] / 2, rel=1e-9) or \
                     c["contact_point"][q][2] == pytest.approx(upper[2] - R + c["overlap"][q] / 2,
                                                               rel=1e-9)
+
+
+def test_contact_forces_of_a_moving_spinning_pair_are_the_linear_law():
+    """An oblique pair of unequal spheres (radii 1 and 2 mm) overlapping by 1e-5 m, moving and
+    spinning, its tangential spring fresh: the snapshot's contact forces against the linear law
+    written here (docs/models.md): F_n = k_n delta - 2 zeta sqrt(m_eff k_n) v_n, F_t =
+    -2 zeta sqrt(m_eff k_t) v_t (k_t = 2/7 k_n, friction 10: no slip), with the relative velocity
+    at the contact point v_i - v_j - (a_i w_i + a_j w_j) x n, a = r - delta/2, n from j to i."""
+    e, k_n, delta = 0.5, 1e4, 1e-5
+    table = MaterialTable([Material("m", RHO)],
+                          {"*": Interaction(normal_stiffness=k_n, restitution=e, friction=10.0)},
+                          "linear_history")
+    radius = np.array([1e-3, 2e-3])
+    n = np.array([1.0, 2.0, 2.0]) / 3.0
+    x = np.array([n * (radius.sum() - delta), [0.0, 0.0, 0.0]])
+    v = np.array([[-0.01, -0.02, 0.005], [0.01, 0.003, 0.0]])
+    w = np.array([[1.0, 2.0, -3.0], [0.0, -1.0, 2.0]])
+    sim = Simulation(PhysicsSpec(gravity=False), table, x=x, radius=radius, material="m", v=v,
+                     w=w)
+    c = pair_contact_forces(sim)
+    assert len(c["i"]) == 1
+    i = int(c["i"][0])
+    assert {i, int(c["j"][0])} == {0, 1}
+    sign = 1.0 if i == 0 else -1.0  # n points from j to i
+    m = RHO * 4 / 3 * math.pi * radius**3
+    m_eff = m[0] * m[1] / m.sum()
+    a = radius - delta / 2
+    vrel = sign * (v[0] - v[1] - np.cross(a[0] * w[0] + a[1] * w[1], n))
+    v_n = vrel @ (sign * n)
+    v_t = vrel - v_n * sign * n
+    zeta = clipped_damping_ratio(e)
+    f_n = k_n * delta - 2 * zeta * math.sqrt(m_eff * k_n) * v_n
+    assert v_n < 0 < f_n  # approaching
+    np.testing.assert_allclose(c["overlap"], [delta], rtol=1e-9)
+    np.testing.assert_allclose(c["normal_force"][0], f_n * sign * n, rtol=1e-9)
+    np.testing.assert_allclose(c["tangential_force"][0],
+                               -2 * zeta * math.sqrt(m_eff * k_n * 2 / 7) * v_t, rtol=1e-9)
+    np.testing.assert_allclose(c["contact_point"][0], x[i] - a[i] * sign * n, rtol=1e-9,
+                               atol=1e-15)
 
 
 def test_every_dataset_has_cf_units(stack):
