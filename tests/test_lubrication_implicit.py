@@ -257,7 +257,7 @@ def test_a_head_on_chain_solves_in_one_iteration_per_gap(beads):
     component (n . t = 0, no lever), so the preconditioned conjugate gradient works in a space of
     one dimension per gap and, in exact arithmetic, ends within that many iterations, cold or
     started from the last step's impulses (Saad 2003, "Iterative methods for sparse linear
-    systems", 6.11: CG ends after as many steps as the Krylov space has dimensions; the
+    systems", ch. 6: CG ends after as many steps as the Krylov space has dimensions; the
     preconditioner, each row's 7 x 7 block, keeps the normal components apart too). At
     tolerance 1e-12 rounding adds none."""
     a, gap = 1.0e-3, 0.02e-3
@@ -275,8 +275,8 @@ def test_the_solve_starts_from_the_last_step_s_impulses():
     """docs/lubrication.md: the solve starts from the last step's impulses where they lower the
     objective. In the dense free cluster at tolerance 1e-6 those start closer than zero does: 100
     steps in one chunk (warm from the second step) take fewer iterations than 100 chunks of one
-    step (each starts cold). Measured 657 against 822; a start from zero every step gives the
-    same count both ways."""
+    step (each starts cold). Measured 657 against 822; with a start from zero at every step
+    (seed 57, `implicit_solve:85`) the one chunk gains nothing and this fails."""
     counts = []
     for chunk in (1, 100):
         rng = np.random.default_rng(3)
