@@ -98,6 +98,14 @@ def test_plane_rebound_reflects_about_its_normal(point, normal, restitution):
     np.testing.assert_allclose(sim.particles.v[0], 0.15 * t + e * V_N * n, rtol=0,
                                atol=_rebound_tolerance(restitution) * V_N)
     _assert_impulses_balance(sim, m, v0)
+    # Velocity Verlet changes (x - p) x m v by the trapezoidal sum of the torques about p, the
+    # plain sum when the force is zero at both ends; frictionless, the force lies along n, so its
+    # torque is (x - p) x F whatever the lever to the contact point: the wall's angular impulse
+    # about its point is minus that change, every component (the drum tests read the axis's only).
+    lever0, lever1 = x0 - np.asarray(point), sim.particles.x[0] - np.asarray(point)
+    dl = np.cross(lever1, m * sim.particles.v[0]) - np.cross(lever0, m * v0)
+    np.testing.assert_allclose(-sim.angular_impulse(wall=0), dl, rtol=0,
+                               atol=1e-9 * m * V_N * np.linalg.norm(lever0))
 
 
 CYLINDERS = [  # (axis point, axis, azimuth of the impact point [deg])
