@@ -174,6 +174,14 @@ def test_poured_spheres_clear_every_sphere_by_the_gap(existing, rmin, spread, ga
 unit_axis = st.tuples(coord, coord, coord).filter(lambda a: 0.1 < np.linalg.norm(a))
 
 
+def _drawn(x, walls, bounded=False):
+    """The snapshot's drawing (12 segments a circle) of ``walls`` around one sphere at x."""
+    sim = Simulation(PhysicsSpec(dim=3, walls=True, bounded_walls=bounded), MaterialTable(
+        [Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3)}, "linear_history"),
+        x=[x], radius=[1e-3], material="m", walls=walls, gravity=(0, 0, 0))
+    return WallTessellator(segments=12)(sim)
+
+
 @CHEAP
 @given(axis=unit_axis)
 @example(axis=(1.0, 1.0, 0.0))  # diagonal in xy: the frame's helper vector must not lie along it
@@ -186,12 +194,9 @@ def test_a_drawn_cylinder_lies_at_its_radius_about_any_axis(axis):
     [1, 1, 0] draws NaN for the axis along it)."""
     a = np.asarray(axis) / np.linalg.norm(axis)
     point, radius = np.array([0.1, -0.2, 0.3]), 0.05
-    sim = Simulation(PhysicsSpec(dim=3, walls=True), MaterialTable(
-        [Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3)}, "linear_history"),
-        x=[point + 0.01 * np.cross(a, [0.3, 0.5, 0.7])], radius=[1e-3], material="m",
-        walls=[dict(kind="cylinder_inner", point=tuple(point), axis=tuple(a), radius=radius,
-                    material="m")], gravity=(0, 0, 0))
-    drawn = WallTessellator(segments=12)(sim)["points"]
+    drawn = _drawn(point + 0.01 * np.cross(a, [0.3, 0.5, 0.7]),
+                   [dict(kind="cylinder_inner", point=tuple(point), axis=tuple(a), radius=radius,
+                         material="m")])["points"]
     off = drawn - point
     across = off - (off @ a)[:, None] * a
     np.testing.assert_allclose(np.linalg.norm(across, axis=1), radius, rtol=1e-9)
@@ -214,12 +219,9 @@ def test_a_drawn_frustum_lies_on_its_sheet_about_any_axis(axis, z0, r0, dz, r1):
         r1 = 0.02
     a = np.asarray(axis) / np.linalg.norm(axis)
     point = np.array([0.1, -0.2, 0.3])
-    sim = Simulation(PhysicsSpec(dim=3, walls=True, bounded_walls=True), MaterialTable(
-        [Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3)}, "linear_history"),
-        x=[point + 0.5 * (2 * z0 + dz) * a], radius=[1e-3], material="m",
-        walls=[dict(kind="frustum", point=tuple(point), axis=tuple(a), start=(z0, r0),
-                    end=(z0 + dz, r1), material="m")], gravity=(0, 0, 0))
-    drawn = WallTessellator(segments=12)(sim)["points"]
+    drawn = _drawn(point + 0.5 * (2 * z0 + dz) * a,
+                   [dict(kind="frustum", point=tuple(point), axis=tuple(a), start=(z0, r0),
+                         end=(z0 + dz, r1), material="m")], bounded=True)["points"]
     off = drawn - point
     along = off @ a
     across = np.linalg.norm(off - along[:, None] * a, axis=1)
@@ -244,14 +246,10 @@ def test_a_plane_drawn_inside_a_drum_reaches_across_the_drum(axis):
     point, radius = np.array([0.1, -0.2, 0.3]), 0.05
     n = np.cross(a, [0.3, 0.5, 0.7])
     n /= np.linalg.norm(n)
-    sim = Simulation(PhysicsSpec(dim=3, walls=True), MaterialTable(
-        [Material("m", 2500.0)], {"*": Interaction(normal_stiffness=1e3)}, "linear_history"),
-        x=[point], radius=[1e-3], material="m",
-        walls=[dict(kind="cylinder_inner", point=tuple(point), axis=tuple(a), radius=radius,
-                    material="m"),
-               dict(kind="plane", point=tuple(point - 0.5 * radius * n), normal=tuple(n),
-                    material="m")], gravity=(0, 0, 0))
-    drawn = WallTessellator(segments=12)(sim)
+    drawn = _drawn(point, [dict(kind="cylinder_inner", point=tuple(point), axis=tuple(a),
+                                radius=radius, material="m"),
+                           dict(kind="plane", point=tuple(point - 0.5 * radius * n),
+                                normal=tuple(n), material="m")])
     corners = drawn["points"][np.unique(drawn["cells"][drawn["wall"] == 1])]  # in drawing order
     assert len(corners) == 4
     e1 = corners[1] - corners[0]

@@ -252,7 +252,6 @@ def test_liner_refuses_lifters_that_do_not_fit():
 @pytest.mark.parametrize("kw", [dict(radius=0.0, thickness=0.01), dict(radius=-R),
                                 dict(length=0.0), dict(thickness=0.0), dict(segments=7)])
 def test_liner_refuses_a_degenerate_shell(kw):
-    args = dict(dict(radius=R, length=LENGTH), **kw)
     with pytest.raises(ValueError, match="^liner_mesh: need radius, length, thickness > 0 and "
                                          "segments >= 8"):
-        liner_mesh(args.pop("radius"), args.pop("length"), **args)
+        liner_mesh(**dict(dict(radius=R, length=LENGTH), **kw))
