@@ -184,3 +184,37 @@ def test_the_scratch_tree_holds_every_part_of_the_repository_but_its_outputs():
     tracked = subprocess.run(["git", "-C", str(ROOT), "ls-tree", "--name-only", "HEAD"],
                              capture_output=True, text=True, check=True).stdout.split()
     assert set(tracked) - {"results", ".gitignore"} <= set(mutate.PARTS)
+
+
+def test_the_step_loop_s_passes_run_against_the_files_that_run_their_physics():
+    """tools/mutant_runners.yaml: every module it names exists and every file it lists is a test
+    file; the files it lists join the importers (the walls pass's importers run no moving wall,
+    no film and no mesh)."""
+    runners = sample_mutants.load_runners()
+    assert set(runners) <= set(sample_mutants.modules())
+    assert all((ROOT / f).is_file() and Path(f).name.startswith("test_")
+               for files in runners.values() for f in files)
+    by_import = sample_mutants.test_files_for("engine/loop/wall_pass", runners={})
+    assert "tests/test_wall_kinds.py" not in by_import
+    assert sample_mutants.test_files_for("engine/loop/wall_pass") == sorted(
+        set(by_import) | set(runners["engine/loop/wall_pass"]))
+
+
+def test_a_record_made_against_other_test_files_is_not_resumed(tmp_path, monkeypatch):
+    """A module whose test files changed (a runner added to tools/mutant_runners.yaml) does not
+    resume a record whose mutants ran against the old files: the scores would mix two sets."""
+    def snapshot(ref, tree):
+        (tree / "src/millsim/util").mkdir(parents=True)
+        shutil.copy(ROOT / "src/millsim/util/stats.py", tree / "src/millsim/util/stats.py")
+
+    monkeypatch.setattr(sample_mutants, "snapshot", snapshot)
+    monkeypatch.setattr(sample_mutants, "run_tests", lambda *a: ("survived", 1.0, ""))
+    record = tmp_path / "r.json"
+    argv = ["--module", "util/stats", "--per-module", "1", "--json", str(record)]
+    monkeypatch.setattr(sample_mutants, "load_runners", lambda: {})
+    assert sample_mutants.main(argv) == 0
+    assert sample_mutants.main(argv) == 0  # the same files: resumes (nothing left to run)
+    monkeypatch.setattr(sample_mutants, "load_runners",
+                        lambda: {"util/stats": ["tests/test_verdicts.py"]})
+    with pytest.raises(SystemExit):
+        sample_mutants.main(argv)

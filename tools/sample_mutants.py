@@ -15,7 +15,8 @@ analysis module, lists every place one of these operators applies
 draws ``--per-module`` of them with a fixed seed (the same sample every run, so a score before and
 after a change compares the same mutants), and runs each against the test files that import its
 module (directly; for a module no test imports, the test files importing its nearest importer;
-for a scene, also the test files that name it).
+for a scene, also the test files that name it), and the files ``tools/mutant_runners.yaml`` lists
+for it: those that run its physics without importing it (the step loop's passes).
 The tree each mutant runs in is a copy of the repository but its outputs (``mutate.PARTS``:
 what the tests read besides ``src/`` and ``tests/``); the unmutated copy runs
 first (the baseline) and a test file that fails there is left out of every mutant's run and named
@@ -59,6 +60,7 @@ PACKAGE = ROOT / "src" / "millsim"
 # physics and analysis: what a wrong number could come from (not the CLI, plots or I/O)
 SCOPE = ("engine", "models", "analysis", "scenes", "util/stats.py")
 EQUIVALENT = ROOT / "tools" / "equivalent_mutants.yaml"
+RUNNERS = ROOT / "tools" / "mutant_runners.yaml"
 # a mutant's time limit: --timeout beyond this many times the baseline's time for its test files
 # (a mutant of the step loop recompiles it in every file, which the baseline's shared cache does
 # once; a test file of whole DEM cases takes minutes unmutated)
@@ -216,10 +218,19 @@ def _imports(path, package):
     return {f for f in found if f.startswith("millsim")}
 
 
-def test_files_for(module):
+def load_runners(path=RUNNERS):
+    """Module -> the test files that run its physics without importing it."""
+    table = yaml.safe_load(Path(path).read_text()) or {}
+    if not isinstance(table, dict) or not all(isinstance(v, list) for v in table.values()):
+        raise ValueError(f"{path}: expected a mapping of module -> list of test files")
+    return table
+
+
+def test_files_for(module, runners=None):
     """Test files importing ``module``, or if none its nearest importer; for a scene, also the
     test files that name it (scenes are registered by name and loaded on demand, so the tests
-    that run a scene seldom import it)."""
+    that run a scene seldom import it); and the files ``runners`` (tools/mutant_runners.yaml)
+    lists for it."""
     dotted = "millsim." + module.replace("/", ".")
     tests = {p: _imports(p, "tests") for p in sorted((ROOT / "tests").glob("test_*.py"))}
     sources = {}
@@ -233,9 +244,9 @@ def test_files_for(module):
     defined_in = {}
     for package, imported in sources.items():
         for item in imported:
-            module, _, name = item.rpartition(".")
-            if module.startswith(package + ".") and module in sources:
-                defined_in[f"{package}.{name}"] = module
+            owner, _, name = item.rpartition(".")
+            if owner.startswith(package + ".") and owner in sources:
+                defined_in[f"{package}.{name}"] = owner
     tests = {p: imp | {defined_in[i] for i in imp if i in defined_in} for p, imp in tests.items()}
     wanted, seen, hits = {dotted}, set(), []
     while wanted and not hits:
@@ -246,7 +257,8 @@ def test_files_for(module):
     if scenes:
         quoted = re.compile(rf"[\"']({'|'.join(map(re.escape, scenes))})[\"']")
         hits += [p for p in tests if p not in hits and quoted.search(p.read_text())]
-    return sorted(str(p.relative_to(ROOT)) for p in hits)
+    named = (load_runners() if runners is None else runners).get(module, [])
+    return sorted({str(p.relative_to(ROOT)) for p in hits} | set(named))
 
 
 def load_equivalent(path=EQUIVALENT):
@@ -336,6 +348,15 @@ def main(argv=None):
     finished = {r["id"] for r in done["results"]}
     # only the modules drawn: the baseline runs their test files, not every module's
     tests_of = {m: args.tests or test_files_for(m) for m in sorted({m["module"] for m in mutants})}
+    # a record made before tools/mutant_runners.yaml ran its modules' importers alone
+    held = done.get("tests_of") or {m: args.tests or test_files_for(m, runners={})
+                                    for m in tests_of}
+    changed = [m for m, ts in tests_of.items()
+               if (done["results"] or done["baseline"]) and held.get(m, ts) != ts]
+    if changed:
+        ap.error(f"{args.json} holds mutants of {changed} run against other test files than "
+                 f"these modules now have: name another --json")
+    done["tests_of"] = {**done.get("tests_of", {}), **tests_of}
     with tempfile.TemporaryDirectory(prefix="millsim-sampled-") as tmp:
         tmp = Path(tmp)
         shared = tmp / "cache-shared"
