@@ -313,15 +313,24 @@ def test_wall_shear_and_rotation_terms(a):
     """A sphere sliding, spinning and approaching a fixed plane at h = 0.005 (2a):
     F = -X_w (n.v) n - YA_w P.v - YB_w (w x n), T = YB_w (v x n) - YC_w P.w (lubrication.md 2.5).
     A sphere sliding along +x without spin gets a drag along -x and a torque about +y (it is
-    rolled forward, YB_w < 0)."""
+    rolled forward, YB_w < 0).
+    The wall receives the opposite: its impulse -F dt and, about its point p (off the sphere's
+    foot, so the lever has every component), the angular impulse -((x - p) x F + T) dt, the film's
+    force acting through the sphere's centre (lubrication.md 2.5)."""
     h0 = 0.005 * 2 * a
+    p = np.array([0.003, -0.002, 0.0])  # on the plane z = 0 that wall_loads assumes
     for v, w in (([2e-3, -1e-3, -0.5e-3], [3.0, -2.0, 5.0]), ([2e-3, 0.0, 0.0], [0.0, 0.0, 0.0])):
         v, w = np.array(v), np.array(w)
-        sim = make_sim(WET, [[0.0, 0.0, a + h0]], [a], v=[v], w=[w], walls=[plane()])
-        F, T, _, F_ref, T_ref = one_step(sim, wall_loads(a))
+        sim = make_sim(WET, [[0.0, 0.0, a + h0]], [a], v=[v], w=[w], walls=[plane(point=p)])
+        F, T, x, F_ref, T_ref = one_step(sim, wall_loads(a))
         Fe, Te = F_ref[0], T_ref[0]
         np.testing.assert_allclose(F[0], Fe, rtol=1e-9, atol=1e-9 * np.linalg.norm(Fe))
         np.testing.assert_allclose(T[0], Te, rtol=1e-9, atol=1e-9 * np.linalg.norm(Te))
+        J, L = -Fe * sim.dt, -(np.cross(x[0] - p, Fe) + Te) * sim.dt
+        np.testing.assert_allclose(sim.impulse(wall=0), J, rtol=1e-9,
+                                   atol=1e-9 * np.linalg.norm(J))
+        np.testing.assert_allclose(sim.angular_impulse(wall=0), L, rtol=1e-9,
+                                   atol=1e-9 * np.linalg.norm(L))
     assert F[0, 0] < 0 and T[0, 1] > 0
 
 
