@@ -109,6 +109,28 @@ def _settling_pile(n=60, seed=3):
                       skin=1e-4)
 
 
+def test_the_list_is_rebuilt_once_per_half_skin_of_travel():
+    """Verlet lists are rebuilt when a particle has moved more than half the skin since the last
+    build, and only then: a sphere in free flight at u with u dt = skin / 20 travels D = N u dt
+    in N steps, so the list is rebuilt between D / (skin / 2 + u dt) - 2 times (each rebuild at
+    most a step after the half skin is passed, the first and last cycles cut short) and
+    D / (skin / 2) + 1 times (never before); a sphere at rest beside it asks for none."""
+    sim0, _ = _resting_sphere()
+    spec, r = PhysicsSpec(dim=3), 1e-3
+    build = dict(radius=[r, r], material="m", gravity=(0, 0, 0))
+    still = Simulation(spec, sim0.table, x=[[0, 0, 0], [0.1, 0, 0]], **build)
+    still.run(500, chunk=500)
+    assert int(still.counters[0]) == 0
+    dt, skin = still.dt, still.skin
+    u, n = skin / (20 * dt), 2000
+    moving = Simulation(spec, sim0.table, x=[[0, 0, 0], [0.1, 0, 0]], v=[[0, u, 0], [0, 0, 0]],
+                        **build)
+    moving.set_time_step(dt)
+    moving.run(n, chunk=n)
+    travel = n * u * dt
+    assert travel / (0.5 * skin + u * dt) - 2 <= int(moving.counters[0]) <= travel / (0.5 * skin) + 1
+
+
 def test_results_do_not_depend_on_the_chunking():
     """A run cut into single-step chunks (every list rebuild then falls on a chunk boundary) gives
     the same bits as one chunk: the list is rebuilt before the first pair of a chunk when the last
