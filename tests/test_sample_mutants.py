@@ -202,7 +202,8 @@ def test_the_step_loop_s_passes_run_against_the_files_that_run_their_physics():
 
 def test_a_record_made_against_other_test_files_is_not_resumed(tmp_path, monkeypatch):
     """A module whose test files changed (a runner added to tools/mutant_runners.yaml) does not
-    resume a record whose mutants ran against the old files: the scores would mix two sets."""
+    resume a record whose mutants ran against the old files: the scores would mix two sets. A
+    finished record still prints its table."""
     def snapshot(ref, tree):
         (tree / "src/millsim/util").mkdir(parents=True)
         shutil.copy(ROOT / "src/millsim/util/stats.py", tree / "src/millsim/util/stats.py")
@@ -210,11 +211,14 @@ def test_a_record_made_against_other_test_files_is_not_resumed(tmp_path, monkeyp
     monkeypatch.setattr(sample_mutants, "snapshot", snapshot)
     monkeypatch.setattr(sample_mutants, "run_tests", lambda *a: ("survived", 1.0, ""))
     record = tmp_path / "r.json"
-    argv = ["--module", "util/stats", "--per-module", "1", "--json", str(record)]
+    argv = ["--module", "util/stats", "--per-module", "2", "--json", str(record)]
+    first = sample_mutants.sample(["util/stats"], 2, seed=47)[0]["id"]
     monkeypatch.setattr(sample_mutants, "load_runners", lambda: {})
-    assert sample_mutants.main(argv) == 0
-    assert sample_mutants.main(argv) == 0  # the same files: resumes (nothing left to run)
+    assert sample_mutants.main(argv + ["--only", first]) == 0
+    assert sample_mutants.main(argv + ["--only", first]) == 0  # the same files: resumes
     monkeypatch.setattr(sample_mutants, "load_runners",
                         lambda: {"util/stats": ["tests/test_verdicts.py"]})
+    assert sample_mutants.main(argv + ["--only", first]) == 0  # finished: its table
     with pytest.raises(SystemExit):
-        sample_mutants.main(argv)
+        sample_mutants.main(argv)  # the second mutant would run against other files
+    assert len(json.loads(record.read_text())["results"]) == 1

@@ -353,9 +353,13 @@ def main(argv=None):
                                     for m in tests_of}
     changed = [m for m, ts in tests_of.items()
                if (done["results"] or done["baseline"]) and held.get(m, ts) != ts]
-    if changed:
+    # a finished record still prints its table; only running more would mix the two sets
+    pending = [m for m in mutants if m["id"] not in finished]
+    if changed and (pending or (done["baseline"] or {}).get("outcome") is None):
         ap.error(f"{args.json} holds mutants of {changed} run against other test files than "
                  f"these modules now have: name another --json")
+    if changed:  # the record's own files, for its table
+        tests_of = {m: held.get(m, ts) for m, ts in tests_of.items()}
     done["tests_of"] = {**done.get("tests_of", {}), **tests_of}
     with tempfile.TemporaryDirectory(prefix="millsim-sampled-") as tmp:
         tmp = Path(tmp)
