@@ -35,14 +35,15 @@ SCENE = get_scene("stirred_mill")
 
 
 def make_sim(x, radius, v=None, w=None, body=None, bodies=(), gravity=(0, 0, 0), eta=10.0,
-             box=((-0.5, 0, 0), (1.0, 0, 0)), k_n=K_N, **fluid):
+             box=((-0.5, 0, 0), (1.0, 0, 0)), k_n=K_N, walls=(), **fluid):
     """One material; a periodic box (WET is periodic; the default is far larger than the beads)."""
     table = MaterialTable([Material("bead", RHO)],
                           {"*": Interaction(normal_stiffness=k_n, restitution=0.5, friction=0.3)},
                           "linear_history")
     fluid = dict(dict(h_min=0.001, h_max=0.05, scheme="implicit"), **fluid)
     return Simulation(WET, table, x=x, radius=radius, material="bead", v=v, w=w, body=body,
-                      bodies=bodies, gravity=gravity, box=box, fluid=Lubrication(eta=eta, **fluid))
+                      bodies=bodies, gravity=gravity, box=box, walls=walls,
+                      fluid=Lubrication(eta=eta, **fluid))
 
 
 def mass(a):
@@ -224,6 +225,29 @@ def test_pair_forces_equal_and_opposite_torques_balance(order):
         np.testing.assert_allclose(T[0] + T[1] + (ai + aj) * np.cross(n_now, F[0]), 0.0,
                                    atol=1e-10 * t)
         assert np.linalg.norm(T[0] + T[1]) > 0.05 * max(np.linalg.norm(T[0]), np.linalg.norm(T[1]))
+
+
+def test_a_wall_receives_the_opposite_of_the_film_s_loads_about_its_point():
+    """One step of a sphere sliding, spinning and approaching a plane (oblique normals, the
+    wall's point off the sphere's foot) through the film alone: the wall's impulse is -F dt and
+    its angular impulse about its point -((x - p) x F + T) dt, F and T the sphere's force and
+    torque of the step (m acc, I alpha), the film's force acting through the sphere's centre
+    (lubrication.md 2.5)."""
+    a, point = A_L, np.array([0.003, -0.002, 0.001])
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        n = unit(rng.normal(size=3))
+        x = point + 2e-3 * unit(np.cross(n, [1.0, 0.0, 0.0])) + (a + 0.01 * 2 * a) * n
+        sim = make_sim([x], [a], v=[rng.normal(size=3) * 1e-3], w=[rng.normal(size=3) * 3.0],
+                       walls=[dict(kind="plane", point=point, normal=n, material="bead")])
+        sim.run(1, threads=1)
+        p = sim.particles
+        F, T = p.acc[0] / p.inv_mass[0], p.alpha[0] / p.inv_inertia[0]
+        assert np.linalg.norm(F) > 0.0
+        J, L = -F * sim.dt, -(np.cross(p.x[0] - point, F) + T) * sim.dt
+        np.testing.assert_allclose(sim.impulse(wall=0), J, rtol=0, atol=1e-10 * np.linalg.norm(J))
+        np.testing.assert_allclose(sim.angular_impulse(wall=0), L, rtol=0,
+                                   atol=1e-10 * np.linalg.norm(L))
 
 
 @pytest.mark.parametrize("max_iterations", [1, 100])
