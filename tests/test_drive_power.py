@@ -252,7 +252,10 @@ def test_the_film_of_a_turning_shaft_drags_alike_about_every_axis(scheme):
     twice, puts the shaft along y and z: a rotation, so the bead's velocity and spin after 1 ms
     are the permuted ones (measured to round-off; 1e-9 of their size allowed), in both schemes.
     The wall's velocity at the bead has one term per pair of components; a term or a coordinate
-    lost for one axis shows (all the other drive tests turn about x)."""
+    lost for one axis shows (all the other drive tests turn about x). The wall's work is the
+    same about every axis, and is its rate times the torque it exerts along its axis: minus
+    omega a . L, L its angular impulse about its point (to 1e-9 of the work; the power it books
+    and the torque it receives are two sums over the same film)."""
     Rs, gap, angle = 3.6e-3, 40e-6, math.radians(40.0)
     rho = Rs + RB + gap
     point = np.array([0.4e-3, -0.3e-3, 0.5e-3])
@@ -267,12 +270,16 @@ def test_the_film_of_a_turning_shaft_drags_alike_about_every_axis(scheme):
         sim.run(steps, chunk=steps, threads=1)
         off = sim.particles.x[0] - np.roll(point, k)
         assert off @ off - (np.roll(X_AXIS, k) @ off) ** 2 > (Rs + RB) ** 2  # apart
-        moved.append((sim.particles.v[0].copy(), sim.particles.w[0].copy()))
-    v0, w0 = moved[0]
+        moved.append((sim.particles.v[0].copy(), sim.particles.w[0].copy(), sim.work(wall=0),
+                      -SHAFT_RATE * np.roll(X_AXIS, k) @ sim.angular_impulse(wall=0)))
+    v0, w0, work0, _ = moved[0]
     assert np.linalg.norm(v0) > 1e-3  # dragged: mm/s in 1 ms
-    for k, (v, w) in enumerate(moved):
+    assert work0 > 0
+    for k, (v, w, work, torque_work) in enumerate(moved):
         np.testing.assert_allclose(v, np.roll(v0, k), rtol=0, atol=1e-9 * np.linalg.norm(v0))
         np.testing.assert_allclose(w, np.roll(w0, k), rtol=0, atol=1e-9 * np.linalg.norm(w0))
+        assert work == pytest.approx(work0, rel=1e-9)
+        assert work == pytest.approx(torque_work, rel=1e-9)
 
 
 def test_a_ramping_drive_follows_its_start_up_and_books_its_work_at_the_current_rate():
