@@ -175,17 +175,19 @@ TILT = Rotation.align_vectors([[2.0, 3.0, 6.0]], [X_AXIS])[0].as_matrix()
 WIDE_BOX = ((-0.05, 0, 0), (0.1, 0, 0))  # the tilted paddle reaches x = +-7 mm
 
 
-def tilted_drive_books(kind):
+def tilted_drive_books(kind, shift=(0.0, 0.0, 0.0)):
     """The paddle above turned by TILT (rotate), or a pusher of two spheres moving along
-    TILT x at 0.5 m/s into a bead 0.2 mm ahead and 0.8 mm off its line (translate)."""
+    TILT x at 0.5 m/s into a bead 0.2 mm ahead and 0.8 mm off its line (translate); the whole
+    set-up moved by ``shift`` (the paddle's centre with it)."""
+    shift = np.asarray(shift)
     if kind == "rotate":
         R = 8e-3
         x = [[0, 0, -R], [0, 0, -R - 2 * A], [0, A + RB + 0.2e-3, -R - 0.8 * A]]
-        body = dict(kind="rotate", center=(0, 0, 0), axis=TILT @ X_AXIS, rate=PADDLE_RATE)
+        body = dict(kind="rotate", center=tuple(shift), axis=TILT @ X_AXIS, rate=PADDLE_RATE)
     else:
         x = [[0, 0, 0], [-2 * A, 0, 0], [A + RB + 0.2e-3, 0, 0.8 * A]]
         body = dict(kind="translate", axis=TILT @ X_AXIS, rate=0.5)
-    sim = make_sim(np.asarray(x) @ TILT.T, [A, A, RB], ["steel", "steel", "bead"],
+    sim = make_sim(np.asarray(x) @ TILT.T + shift, [A, A, RB], ["steel", "steel", "bead"],
                    body=[0, 0, -1], bodies=[body], box=WIDE_BOX)
     K0 = kinetic_energy(sim)
     steps = int(round(2.5e-3 / sim.dt))
@@ -214,6 +216,21 @@ def test_a_body_books_its_work_about_a_tilted_axis(kind):
     assert abs(b["work"] - b["dK"] - b["dissipated"]) < 2e-3 * b["work"]
     if kind == "rotate":
         assert b["work"] == pytest.approx(drive_books("paddle", 1.0)["work"], rel=1e-6)
+
+
+def test_a_turning_body_s_loads_about_its_centre_do_not_depend_on_where_it_stands():
+    """The tilted paddle's collision moved as a whole, its centre from the origin to (1, -2, 3)
+    mm: the paddle's work and its angular impulse about its centre, every component, are those
+    of the unmoved paddle (the physics is translation invariant; rel 1e-9, measured to
+    rounding). A body's moments are taken about its centre: a lever measured from the origin, or
+    one of the centre's coordinates read from another column, shows only once the centre leaves
+    the origin (every other body test turns about it)."""
+    here = tilted_drive_books("rotate")
+    there = tilted_drive_books("rotate", shift=(1e-3, -2e-3, 3e-3))
+    assert here["work"] > 0
+    assert there["work"] == pytest.approx(here["work"], rel=1e-9)
+    np.testing.assert_allclose(there["load"], here["load"], rtol=0,
+                               atol=1e-9 * np.linalg.norm(here["load"]))
 
 
 def angular_momentum(sim):
