@@ -190,8 +190,10 @@ def test_nan_spreading_through_contacts_is_caught_in_its_step():
         sim.run(10)
 
 
-def test_overlap_guard():
-    spec = PhysicsSpec(dim=3, gravity=False)
+@pytest.mark.parametrize("force_sum", ["records", "colour"])
+def test_overlap_guard(force_sum):
+    """Both force sums (the slot-record pass and the colour pass) stop on an overlap."""
+    spec = PhysicsSpec(dim=3, gravity=False, force_sum=force_sum)
     sim = Simulation(spec, _table(), x=[[0, 0, 0], [3e-3, 0, 0]], radius=[1e-3, 1e-3], material="m",
                      guards=Guards(max_overlap=0.3))
     sim.particles.x[1, 0] = 1.2e-3  # jumped into overlap between chunks
