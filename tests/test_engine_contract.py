@@ -143,6 +143,7 @@ def test_results_do_not_depend_on_the_chunking():
     # the same rebuilds, whatever the chunking (a stale list can give the same bits while no new
     # pair comes into contact, so the positions alone would not show a missed rebuild)
     assert int(many.counters[0]) == int(one.counters[0])
+    assert int(one.counters[1]) == int(many.counters[1]) == 600  # the steps, as documented
     assert np.array_equal(one.particles.x, many.particles.x)
     assert np.array_equal(one.particles.v, many.particles.v)
     assert np.array_equal(one.particles.w, many.particles.w)

@@ -293,6 +293,8 @@ def test_a_head_on_chain_solves_in_one_iteration_per_gap(beads):
     sim.run(100, chunk=10, threads=1)
     assert not sim.contact_pairs()[0].size  # the premise: film only
     assert sim.counters[3] == beads - 1  # the most in one step
+    # and in all at most that many a solve: 100 steps and the start state's (issue 11, 8a)
+    assert 0 < sim.counters[2] <= (beads - 1) * 101
 
 
 def test_the_solve_starts_from_the_last_step_s_impulses():
