@@ -349,10 +349,10 @@ def main(argv=None):
     # only the modules drawn: the baseline runs their test files, not every module's
     tests_of = {m: args.tests or test_files_for(m) for m in sorted({m["module"] for m in mutants})}
     # a record made before tools/mutant_runners.yaml ran its modules' importers alone
-    held = done.get("tests_of") or {m: args.tests or test_files_for(m, runners={})
-                                    for m in tests_of}
-    changed = [m for m, ts in tests_of.items()
-               if (done["results"] or done["baseline"]) and held.get(m, ts) != ts]
+    started = done["results"] or done["baseline"]
+    held = done.get("tests_of") or ({m: args.tests or test_files_for(m, runners={})
+                                     for m in tests_of} if started else tests_of)
+    changed = [m for m, ts in tests_of.items() if held.get(m, ts) != ts]
     # a finished record still prints its table; only running more would mix the two sets
     pending = [m for m in mutants if m["id"] not in finished]
     if changed and (pending or (done["baseline"] or {}).get("outcome") is None):
