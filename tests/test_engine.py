@@ -236,6 +236,35 @@ def test_runaway_speed_guard():
         sim.run(5)
 
 
+@pytest.mark.parametrize("speed", [150.0, 250.0])
+def test_the_default_speed_guard_is_ten_times_a_fast_impact_speed(speed):
+    """Guards' documented default v_max is max(100 m/s, 10 x the impact speed): at an impact
+    speed of 20 m/s the limit is 200 m/s, so a free particle at 150 m/s flies on and one at
+    250 m/s stops the run."""
+    sim = Simulation(PhysicsSpec(dim=3, gravity=False), _table(), x=[[0, 0, 0]], radius=[1e-3],
+                     material="m", v=[[speed, 0, 0]], step=StepPolicy(impact_speed=20.0))
+    if speed < 200.0:
+        sim.run(5)
+        assert sim.particles.v[0, 0] == speed
+    else:
+        with pytest.raises(SimulationError, match="runaway kinetic energy, particle 0"):
+            sim.run(5)
+
+
+def test_potential_energy_is_minus_m_g_dot_x_and_zero_without_gravity():
+    """Two spheres of 2500 kg/m^3, one above the origin and one below, under g = (0, 0, -9.81):
+    E = sum m g z, from their volumes; the same spheres without gravity hold none."""
+    x, radius = [[0.0, 0.0, 0.3], [0.1, 0.0, -0.2]], [1e-3, 2e-3]
+    mass = 2500.0 * 4.0 / 3.0 * math.pi * np.array(radius) ** 3
+    with_g = Simulation(PhysicsSpec(dim=3), _table(), x=x, radius=radius, material="m",
+                        gravity=(0.0, 0.0, -9.81))
+    assert with_g.potential_energy() == pytest.approx(9.81 * (0.3 * mass[0] - 0.2 * mass[1]),
+                                                      rel=1e-12)
+    without = Simulation(PhysicsSpec(dim=3, gravity=False), _table(), x=x, radius=radius,
+                         material="m")
+    assert without.potential_energy() == 0.0
+
+
 def test_remove_particles_keeps_contact_history():
     sim = _dense_bed(300)
     sim.run(1500)
