@@ -120,6 +120,28 @@ def test_a_fast_rising_plate_strikes_a_resting_sphere_instead_of_passing_through
     assert sim.particles.x[0, 2] > top + 0.9 * R
 
 
+def test_a_gliding_plate_asks_for_new_candidates_once_per_half_skin_of_travel():
+    """A plate glides sideways at u (u dt = skin / 20) 40 radii below a resting sphere it never
+    reaches: the sphere asks for no rebuild itself, so the lists are rebuilt as the plate
+    travels, between D / (skin / 2 + u dt) - 2 and D / (skin / 2) + 1 times over its travel D
+    (the bounds of the particles' rule in tests/test_engine_contract.py); a plate at rest asks
+    for none."""
+    vertices, faces = slab(2, 0.005, 0.002)
+    x0 = [[0.0, 0.0, 40 * R]]
+    still = make_sim(TRANSLATING_MESH, x0, gravity=NO_GRAVITY, walls=[mesh_wall(vertices, faces)])
+    still.run(500, chunk=500)
+    assert int(still.counters[0]) == 0
+    u, n = still.skin / (20 * still.dt), 2000
+    gliding = make_sim(TRANSLATING_MESH, x0, gravity=NO_GRAVITY,
+                       walls=[mesh_wall(vertices, faces, velocity=(u, 0.0, 0.0))])
+    assert gliding.dt == still.dt
+    gliding.run(n, chunk=n)
+    travel = n * u * still.dt
+    assert (travel / (0.5 * still.skin + u * still.dt) - 2 <= int(gliding.counters[0])
+            <= travel / (0.5 * still.skin) + 1)
+    assert np.array_equal(gliding.particles.x[0], x0[0])  # never reached
+
+
 def test_a_turning_paddle_strikes_a_resting_sphere_instead_of_passing_through():
     """A paddle (10 x 1 x 2 mm) turning about z at 40 rad/s from 0.52 rad behind a resting
     sphere 5 mm from the axis: the face meets the sphere at about 4.9 mm, moving at omega times
