@@ -63,3 +63,13 @@ def test_the_narrowest_and_widest_possible_orifices_are_accepted():
     r = scene.resolve(dict(SMALL))["radius"]
     for d in (2.0 * r * (1 + 1e-6), 2.0 * SMALL["silo_radius"] * (1 - 1e-6)):
         assert scene.resolve(dict(SMALL, orifice_diameter=d))["orifice_diameter"] == d
+
+
+def test_a_pour_height_a_hair_above_six_radii_is_accepted():
+    """The pour's floor is 2 radii up and its box needs room for a sphere: 6 radii is the stated
+    limit, so 6 (1 + 1e-6) radii is accepted (refusing below 9 radii passed the refusal test,
+    whose height was below both)."""
+    load_all()
+    scene = get_scene("silo")
+    h = 6.0 * scene.resolve(dict(SMALL))["radius"] * (1 + 1e-6)
+    assert scene.resolve(dict(SMALL, pour_height=h))["pour_height"] == h
