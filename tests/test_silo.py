@@ -8,6 +8,7 @@ monotone and steady enough to fit, and impossible geometries are refused with on
 
 import math
 
+import numpy as np
 import pytest
 
 from millsim.scenes import load_all
@@ -73,3 +74,37 @@ def test_a_pour_height_a_hair_above_six_radii_is_accepted():
     scene = get_scene("silo")
     h = 6.0 * scene.resolve(dict(SMALL))["radius"] * (1 + 1e-6)
     assert scene.resolve(dict(SMALL, pour_height=h))["pour_height"] == h
+
+
+def test_the_silo_plans_its_step_and_guard_for_twice_the_fall_from_the_pour():
+    """A grain let go at the pour's top lands at sqrt(2 g h); the scene plans the step (the
+    Hertz contact time at the impact speed) and the speed guard (ten times that) for twice the
+    fall's speed."""
+    from millsim.scenes.silo import SiloCase
+
+    load_all()
+    case = SiloCase(get_scene("silo").resolve(dict(SMALL)))
+    fall = math.sqrt(2.0 * 9.81 * SMALL["pour_height"])
+    assert case.sim.dt_report.impact_speed == pytest.approx(2.0 * fall, rel=1e-12)
+    assert case.sim.guards.v_max == pytest.approx(20.0 * fall, rel=1e-12)
+
+
+def test_the_silo_reports_progress_in_zero_to_one_and_one_when_it_stops():
+    """progress() gives the fraction done in [0, 1] (scenes/driver.py); the discharge stops once
+    nine tenths of the charge have left, so that point, and any later one, reads 1."""
+    from millsim.scenes.silo import SiloCase
+
+    load_all()
+    case = SiloCase(get_scene("silo").resolve(dict(SMALL)))
+    total = case.mass * SMALL["n"]
+    seen = [case.progress()[0]]  # pouring
+    case.stage = "settle"
+    seen.append(case.progress()[0])
+    case.stage = "discharge"
+    for out in np.linspace(0.0, 1.0, 21):
+        case.discharged = out * total
+        seen.append(case.progress()[0])
+    assert all(0.0 <= f <= 1.0 for f in seen)
+    assert seen == sorted(seen)
+    case.discharged = 0.9 * total
+    assert case.progress()[0] == 1.0
