@@ -71,3 +71,38 @@ def test_hertz_clipped_contact_time_and_speed_independence(restitution):
     # Independent of impact speed (a property of this damping law).
     fast = run_collision(contact_law="hertz_mindlin", restitution=restitution, speed=4.0)
     assert float(fast.restitution) == pytest.approx(float(ds.restitution), rel=TOL)
+
+
+@pytest.mark.parametrize("dt_factor", [0.6, 1.0])
+@pytest.mark.parametrize("target", ["particle", "wall"])
+def test_a_clipped_contact_ends_at_the_first_step_without_force(target, dt_factor):
+    """A clipped force reaches 0 and stays there, so the clipped convention's end is the first
+    recorded step without normal force: on a coarse step (50-115 steps a contact) the measured
+    contact time is the analytic one (Schwager & Poeschel 2007) up to one step late, never
+    more (the start, where the overlap crosses 0 at constant speed, is interpolated exactly)."""
+    scene = get_scene("collision")
+    ds, provenance = scene.run(scene.resolve(dict(contact_law="linear_hw", dim=2, target=target,
+                                                  convention="clipped", dt_factor=dt_factor)),
+                               RunContext())
+    late = float(ds.contact_time) - float(ds.contact_time_analytic)
+    assert 0.0 < late <= provenance["dt"]
+
+
+def test_the_collision_reports_progress_below_one_until_it_is_done(monkeypatch):
+    """A case's progress is the fraction done in [0, 1] (scenes/driver.py): a collision that
+    parts long before its cap of twenty contact times reports fractions that grow from the
+    first chunk on and stay below 1."""
+    from millsim.scenes import driver
+
+    seen, update = [], driver.Progress.update
+
+    def record(self, fraction, *args):
+        seen.append(fraction)
+        return update(self, fraction, *args)
+
+    monkeypatch.setattr(driver.Progress, "update", record)
+    scene = get_scene("collision")
+    scene.run(scene.resolve({}), RunContext(progress=True))
+    assert len(seen) > 10
+    assert seen == sorted(seen)
+    assert 0.0 < seen[0] and seen[-1] < 1.0
