@@ -237,3 +237,16 @@ def test_absorbed_energy_inverts_the_damage_law():
         for r in (0.05, 0.5, 0.9):
             D = tavares.damage_fraction(r, gamma)
             assert sp.absorbed_from_damage(100.0, 100.0 * (1 - D), gamma) == pytest.approx(100 * r)
+
+
+def test_the_contact_constants_are_those_of_tavares_2021_table_6():
+    """Tavares et al. (2021), Table 6 (coefficients of static friction and of restitution):
+    particle/steel 0.50 and 0.39, particle/particle 0.49 and 0.48, steel/steel 0.50 and 0.50
+    (the striker of a drop-weight test is steel on a steel plate)."""
+    s = sp.build(SCENE.resolve({"mode": "drop_weight", "n_particles": 1}))
+    ore = s.mat.name
+    table = {(ore, "steel"): (0.50, 0.39), (ore, ore): (0.49, 0.48),
+             ("steel", "steel"): (0.50, 0.50)}
+    for (a, b), (friction, restitution) in table.items():
+        values = s.sim.table.interaction(a, b).values
+        assert (values["friction"], values["restitution"]) == (friction, restitution), (a, b)
