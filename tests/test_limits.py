@@ -136,3 +136,17 @@ def test_shipped_yaml_within_the_limits():
     for config in ("config/config.yaml", "config/paper.yaml", "config/bed_trends.yaml"):
         safe_yaml.check_size(config)
         assert isinstance(safe_yaml.load(open(config).read(), config), dict)
+
+
+def test_a_drop_weight_test_counts_a_striker_per_particle():
+    """A drop-weight test has a steel striker above every particle: in the same memory it takes
+    half as many particles as a single-impact test."""
+    scene = get_scene("single_particle")
+    with memory.max_memory("1G"):
+        with pytest.raises(ValueError) as refused:
+            scene.resolve({"n_particles": str(10**9)})
+        largest = int(re.search(r"allowed up to (\d+) particles$", str(refused.value))[1])
+        scene.resolve({"n_particles": str(largest)})
+        scene.resolve({"n_particles": str(largest // 2), "mode": "drop_weight"})
+        with pytest.raises(ValueError, match="n_particles: "):
+            scene.resolve({"n_particles": str(largest // 2 + 1), "mode": "drop_weight"})

@@ -250,3 +250,19 @@ def test_the_contact_constants_are_those_of_tavares_2021_table_6():
     for (a, b), (friction, restitution) in table.items():
         values = s.sim.table.interaction(a, b).values
         assert (values["friction"], values["restitution"]) == (friction, restitution), (a, b)
+
+
+def test_every_repeated_impact_starts_as_the_first():
+    """Between the impacts of the repeated test the unbroken particles go back to where the
+    first impact started them: at home, at the impact velocity, not spinning."""
+    s = sp.build(SCENE.resolve({"mode": "repeated", "n_particles": 4}))
+    p = s.sim.particles
+    first = p.x.copy(), p.v.copy(), p.w.copy()
+    assert not first[2].any()
+    p.x[:] += 1e-3
+    p.v[:, 0] = 0.5
+    p.w[:] = [[3.0, -2.0, 1.0]]
+    sp._reset_survivors(s)
+    p = s.sim.particles  # the reset rebuilds the arrays (it removes the broken ones)
+    for now, then in zip((p.x, p.v, p.w), first):
+        assert np.array_equal(now, then)
