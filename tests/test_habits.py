@@ -134,6 +134,35 @@ def test_progress_of_a_case_that_ends_on_an_event_shows_times_not_a_percentage()
     assert not any(re.search(r"  0\.0 %|ETA -", line) for line in unknown + known)
 
 
+@pytest.mark.parametrize("overrides", [
+    dict(n=40, settle_steps=300, steps=300, record_every=100),
+    dict(container="drum", n=40, settle_steps=200, spinup_steps=200, steps=200, record_every=100),
+], ids=["box", "drum"])
+def test_a_staged_case_reports_progress_in_zero_to_one_naming_its_stage(monkeypatch, overrides):
+    """A case's progress is (fraction done in [0, 1], a short note) (scenes/driver.py): the
+    packing's stages (settle, spin-up in a drum, timed) share one fraction that only grows
+    across them, each note names a stage, in order, and the last fraction is 1."""
+    from millsim.scenes import driver, load_all
+    from millsim.scenes.base import RunContext, get_scene
+
+    seen, update = [], Progress.update
+
+    def record(self, fraction, note, *args):
+        seen.append((fraction, note))
+        return update(self, fraction, note, *args)
+
+    monkeypatch.setattr(driver.Progress, "update", record)
+    load_all()
+    scene = get_scene("packing")
+    scene.run(scene.resolve(overrides), RunContext(progress=True))
+    fractions = [f for f, _ in seen]
+    assert all(0.0 <= f <= 1.0 for f in fractions) and fractions == sorted(fractions)
+    assert fractions[-1] == 1.0
+    stages = ["settle", "spinup", "timed"] if "spinup_steps" in overrides else ["settle", "timed"]
+    notes = [note for _, note in seen[:-1]]  # the stage under way after each chunk
+    assert set(notes) <= set(stages) and notes == sorted(notes, key=stages.index)
+
+
 # ---- millsim info: every millsim file -------------------------------------------------------
 
 def fake_case(path, speed):
