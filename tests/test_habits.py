@@ -134,6 +134,43 @@ def test_progress_of_a_case_that_ends_on_an_event_shows_times_not_a_percentage()
     assert not any(re.search(r"  0\.0 %|ETA -", line) for line in unknown + known)
 
 
+def test_the_eta_extrapolates_the_rate_since_the_first_chunk(monkeypatch):
+    """ETA = (1 - f) / rate, the rate (f - f0) / (t - t0) counted from the first known fraction
+    after the first chunk (so not the compilation): on a clock of 10 s a chunk, fractions 0.1,
+    0.2 and 0.4 give ETAs of 0.8 / 0.01 = 80 s and 0.6 / 0.015 = 40 s."""
+    from millsim.scenes import driver
+
+    clock = [0.0]
+    monkeypatch.setattr(driver, "time", type("Clock", (), {"perf_counter": lambda: clock[0]}))
+    stream = io.StringIO()
+    progress = Progress("scene", every=0.0, stream=stream)
+    for t, fraction in ((10.0, 0.1), (20.0, 0.2), (30.0, 0.4)):
+        clock[0] = t
+        progress.update(fraction, "", 1, 5)
+    etas = re.findall(r"ETA (\d+) s", stream.getvalue())
+    assert etas == ["80", "40"]
+
+
+def test_a_case_records_its_steps_and_a_wall_time_within_the_run_s(tmp_path):
+    """The provenance of a case (docs/pipeline.md): its steps (the collision records every step,
+    from t = 0) and its wall time, which holds the compiled loop's seconds and lies within the
+    time the caller saw the run take."""
+    import time
+
+    from millsim.scenes import load_all
+    from millsim.scenes.base import RunContext, get_scene
+
+    load_all()
+    scene = get_scene("collision")
+    values = scene.resolve({})
+    start = time.perf_counter()
+    ds, provenance = scene.run(values, RunContext())
+    took = time.perf_counter() - start
+    assert provenance["steps"] == ds.time.size - 1
+    assert provenance["steps"] == round(float(ds.time[-1]) / provenance["dt"])
+    assert provenance["compute_seconds"] <= provenance["wall_time_s"] <= took
+
+
 @pytest.mark.parametrize("overrides", [
     dict(n=40, settle_steps=300, steps=300, record_every=100),
     dict(container="drum", n=40, settle_steps=200, spinup_steps=200, steps=200, record_every=100),
