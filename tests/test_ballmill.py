@@ -189,3 +189,77 @@ def test_chain_statistics_count_each_chain_once_by_its_capped_length():
                 counts[b] += 1
     np.testing.assert_allclose(out["load_profile"], sums / counts, rtol=1e-14)
     np.testing.assert_allclose(out["position"], [0.25, 0.75])
+
+
+def _chains_by_definition(x, pairs_i, pairs_j, load, threshold, angle_deg):
+    """Buchholtz et al. 2000, section 5, written out: every triple i-j-k of contacts whose three
+    grains carry more than the threshold and whose angle at j exceeds angle_deg links i, j and
+    k; chains are the connected groups of linked grains (a union-find over the triples)."""
+    neighbours = {g: set() for g in range(len(x))}
+    for a, b in zip(pairs_i, pairs_j):
+        neighbours[int(a)].add(int(b))
+        neighbours[int(b)].add(int(a))
+    parent = list(range(len(x)))
+
+    def root(g):
+        while parent[g] != g:
+            g = parent[g]
+        return g
+
+    linked = set()
+    for j in range(len(x)):
+        around = sorted(g for g in neighbours[j] if load[g] > threshold)
+        if load[j] <= threshold:
+            continue
+        for m, i in enumerate(around):
+            for k in around[m + 1:]:
+                u, v = x[i] - x[j], x[k] - x[j]
+                cos = u @ v / math.sqrt((u @ u) * (v @ v))
+                if math.degrees(math.acos(max(-1.0, min(1.0, cos)))) > angle_deg:
+                    for g in (i, k):
+                        parent[root(g)] = root(j)
+                    linked |= {i, j, k}
+    groups = {}
+    for g in linked:
+        groups.setdefault(root(g), set()).add(g)
+    return {frozenset(group) for group in groups.values()}
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_force_chains_are_the_linked_triples_of_the_definition(seed):
+    """find_chains against the definition (Buchholtz et al. 2000) written out by plain loops on a
+    jittered lattice of 2D grains with random loads (about a third below the threshold), contacts
+    between lattice neighbours and diagonals: the same chains, each ordered along its principal
+    direction (the projections of its centres on that axis are monotone)."""
+    from millsim.scenes.force_chains import CHAIN_ANGLE_DEG, find_chains
+
+    rng = np.random.default_rng(seed)
+    side = 12
+    grid = np.stack(np.meshgrid(np.arange(side), np.arange(side), indexing="ij"), -1).reshape(-1, 2)
+    x = grid + rng.normal(0.0, 0.12, grid.shape)
+    steps = [(1, 0), (0, 1), (1, 1), (1, -1)]
+    index = {tuple(g): n for n, g in enumerate(grid)}
+    pairs = [(index[tuple(g)], index[(g[0] + dx, g[1] + dy)]) for g in grid
+             for dx, dy in steps if (g[0] + dx, g[1] + dy) in index and rng.random() < 0.6]
+    pairs_i, pairs_j = (np.array(p) for p in zip(*pairs))
+    load = rng.uniform(0.0, 3.0, len(x))
+    chains = find_chains(x, pairs_i, pairs_j, load, 1.0)
+    expected = _chains_by_definition(x, pairs_i, pairs_j, load, 1.0, CHAIN_ANGLE_DEG)
+    assert sum(map(len, expected)) >= 10  # the configuration has chains to find
+    assert {frozenset(int(g) for g in chain) for chain in chains} == expected
+    for chain in chains:
+        c = x[chain] - x[chain].mean(0)
+        along = c @ np.linalg.svd(c, full_matrices=False)[2][0]
+        assert (np.diff(along) >= 0).all() or (np.diff(along) <= 0).all()
+
+
+@pytest.mark.parametrize("angle, chained", [(140.0, False), (155.0, True)])
+def test_a_bent_triple_is_a_chain_only_beyond_150_degrees(angle, chained):
+    """Three strong grains in contact, bent at the middle one by ``angle``: a chain only where
+    the angle exceeds Buchholtz et al.'s 150 degrees."""
+    from millsim.scenes.force_chains import find_chains
+
+    a = math.radians(angle)
+    x = np.array([[-1.0, 0.0], [0.0, 0.0], [-math.cos(a), math.sin(a)]])
+    chains = find_chains(x, np.array([0, 1]), np.array([1, 2]), np.full(3, 2.0), 1.0)
+    assert [sorted(int(g) for g in c) for c in chains] == ([[0, 1, 2]] if chained else [])
