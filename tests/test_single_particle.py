@@ -266,3 +266,18 @@ def test_every_repeated_impact_starts_as_the_first():
     p = s.sim.particles  # the reset rebuilds the arrays (it removes the broken ones)
     for now, then in zip((p.x, p.v, p.w), first):
         assert np.array_equal(now, then)
+
+
+def test_a_particle_ends_as_one_sphere_plus_what_each_breakage_added():
+    """Bookkeeping across the outputs of one particle broken at twice its median fracture
+    energy: each breakage replaces one sphere by its resolved progeny, so the particle ends as
+    1 + sum(event_progeny - 1) spheres; and the product's passing with resolved-unbreakable
+    spheres by eq 13 differs from the one with those spheres kept at their size exactly when
+    some of them reached their fracture energy (unbreakable_records > 0)."""
+    ds = _run(n_particles=1, energy_ratio=2.0, diameter=0.01)
+    events = ds["event_particle"].values == 0
+    assert events.any()
+    expected = 1 + int((ds["event_progeny"].values[events] - 1).sum())
+    assert int(ds["particle_progeny"].values[0]) == expected
+    differs = bool(np.any(ds["product_passing"].values != ds["product_passing_spheres"].values))
+    assert differs and int(ds["unbreakable_records"]) > 0
