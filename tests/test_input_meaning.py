@@ -132,6 +132,19 @@ def test_a_liner_that_is_the_drum_is_accepted(tmp_path):
         scene.resolve(dict(container="drum", liner=str(mm), liner_scale=1e-3, drum_radius=0.043))
 
 
+def test_a_thin_slice_of_a_large_mill_is_not_taken_for_a_unit_slip(tmp_path):
+    """The liner of a slice of a large mill, in m (R = 1 m, 0.1 m long), with drum_radius set
+    10 % off: refused for the radius without a hint at the units, which are right (the hint is
+    for a liner a thousand times too large or small: tests above)."""
+    from millsim.scenes.base import get_scene
+
+    liner = _liner(tmp_path / "slice.stl", radius=1.0, length=0.1)
+    with pytest.raises(ValueError, match="drum_radius is 1.1 m") as refused:
+        get_scene("packing").resolve(dict(container="drum", liner=str(liner), drum_radius=1.1,
+                                          drum_length=0.1))
+    assert "units?" not in str(refused.value)
+
+
 # ---- the command line: a key twice, two outputs in one file ------------------------------------
 
 @pytest.mark.parametrize("args, needle", [
