@@ -97,11 +97,14 @@ def test_a_killed_run_resumes_from_its_checkpoint_to_the_same_case_file(tmp_path
                                                                         uninterrupted):
     out, ckpt = tmp_path / "case.nc", tmp_path / "case.nc.ckpt"
     command = [*RUN, "--checkpoint-every", "1e-9", "--out", str(out), "--quiet"]
+    started = time.monotonic()
     proc = subprocess.Popen([sys.executable, "-m", "millsim.cli", *command],
                             stderr=subprocess.DEVNULL)
     state = kill_once_it_broke(proc, ckpt, lambda: proc.pid)
     assert proc.returncode == -signal.SIGKILL and not out.exists()
     assert 0 < state["steps_total"] < uninterrupted.attrs["steps"]
+    # the run's wall time so far, within the time the process lived
+    assert 0 < state["wall_time_s"] < time.monotonic() - started
     broken = len(state["case"].split.events)
 
     # the checkpoint of other parameters is not used, and is gone once that case is written
@@ -114,10 +117,14 @@ def test_a_killed_run_resumes_from_its_checkpoint_to_the_same_case_file(tmp_path
     assert read_case(other).attrs["resumed_at_steps"] == ""
     assert not os.path.exists(f"{other}.ckpt")
 
+    resuming = time.monotonic()
     assert main(command) == 0
+    resume_took = time.monotonic() - resuming
     assert f"resuming from {ckpt} at step {state['steps_total']}" in capsys.readouterr().err
     assert not ckpt.exists()
     resumed = read_case(out)
+    # the case's wall time: the killed run's up to its checkpoint, then the resumed run's
+    assert state["wall_time_s"] < resumed.attrs["wall_time_s"] <= state["wall_time_s"] + resume_took
     assert resumed.attrs["resumed_at_steps"] == str(state["steps_total"])
     assert int(resumed["fracture_events"][-1]) > broken  # it broke before and after the kill
     assert_same_case(uninterrupted, resumed)
