@@ -169,6 +169,9 @@ def test_a_case_records_its_steps_and_a_wall_time_within_the_run_s(tmp_path):
     assert provenance["steps"] == ds.time.size - 1
     assert provenance["steps"] == round(float(ds.time[-1]) / provenance["dt"])
     assert provenance["compute_seconds"] <= provenance["wall_time_s"] <= took
+    # threads: the number asked for, 0 where none was (docs/pipeline.md, "Provenance of a case")
+    assert provenance["threads"] == 0
+    assert scene.run(values, RunContext(threads=1))[1]["threads"] == 1
 
 
 @pytest.mark.parametrize("overrides", [
