@@ -151,7 +151,7 @@ def test_the_eta_extrapolates_the_rate_since_the_first_chunk(monkeypatch):
     assert etas == ["80", "40"]
 
 
-def test_a_case_records_its_steps_and_a_wall_time_within_the_run_s(tmp_path):
+def test_a_case_records_its_steps_and_a_wall_time_within_the_run_s():
     """The provenance of a case (docs/pipeline.md): its steps (the collision records every step,
     from t = 0) and its wall time, which holds the compiled loop's seconds and lies within the
     time the caller saw the run take."""

@@ -67,9 +67,9 @@ def test_the_narrowest_and_widest_possible_orifices_are_accepted():
 
 
 def test_a_pour_height_a_hair_above_six_radii_is_accepted():
-    """The pour's floor is 2 radii up and its box needs room for a sphere: 6 radii is the stated
-    limit, so 6 (1 + 1e-6) radii is accepted (refusing below 9 radii passed the refusal test,
-    whose height was below both)."""
+    """6 radii is the stated limit (the refusal's message), so 6 (1 + 1e-6) radii is accepted
+    (issue 47, seed 57 `silo:66`: refusing below 9 radii passed the refusal test, whose height
+    was below both)."""
     load_all()
     scene = get_scene("silo")
     h = 6.0 * scene.resolve(dict(SMALL))["radius"] * (1 + 1e-6)
