@@ -99,3 +99,23 @@ def calibration_files(tmp_path, source, friction_interval, eta_interval, speeds=
     reference.write_text("rpm,fluid,eta_exp,net_power,source\n"
                          f"1000,dry,0,10,{source}\n2000,A,0.05,20,{source}\n")
     return friction, viscosity, prediction, reference
+
+
+def progress_of(monkeypatch, scene_name, overrides):
+    """[(fraction, note)] a run of ``scene_name`` with ``overrides`` hands its progress line,
+    one per chunk (scenes/driver.py's Progress.update, wrapped)."""
+    from millsim.scenes import driver, load_all
+    from millsim.scenes.base import RunContext, get_scene
+
+    seen, update = [], driver.Progress.update
+
+    def record(self, fraction, note, *args):
+        seen.append((fraction, note))
+        return update(self, fraction, note, *args)
+
+    monkeypatch.setattr(driver.Progress, "update", record)
+    load_all()
+    scene = get_scene(scene_name)
+    scene.run(scene.resolve(overrides), RunContext(progress=True))
+    return seen
+

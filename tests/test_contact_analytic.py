@@ -6,6 +6,8 @@ import pytest
 
 from millsim.scenes.base import RunContext, get_scene
 
+from helpers import progress_of
+
 TOL = 0.005  # 0.5 %, the issue's tolerance
 
 
@@ -92,17 +94,7 @@ def test_the_collision_reports_progress_below_one_until_it_is_done(monkeypatch):
     """A case's progress is the fraction done in [0, 1] (scenes/driver.py): a collision that
     parts long before its cap of twenty contact times reports fractions that grow from the
     first chunk on and stay below 1."""
-    from millsim.scenes import driver
-
-    seen, update = [], driver.Progress.update
-
-    def record(self, fraction, *args):
-        seen.append(fraction)
-        return update(self, fraction, *args)
-
-    monkeypatch.setattr(driver.Progress, "update", record)
-    scene = get_scene("collision")
-    scene.run(scene.resolve({}), RunContext(progress=True))
+    seen = [fraction for fraction, _ in progress_of(monkeypatch, "collision", {})]
     assert len(seen) > 10
     assert seen == sorted(seen)
     assert 0.0 < seen[0] and seen[-1] < 1.0

@@ -182,19 +182,9 @@ def test_a_staged_case_reports_progress_in_zero_to_one_naming_its_stage(monkeypa
     """A case's progress is (fraction done in [0, 1], a short note) (scenes/driver.py): the
     packing's stages (settle, spin-up in a drum, timed) share one fraction that only grows
     across them, each note names a stage, in order, and the last fraction is 1."""
-    from millsim.scenes import driver, load_all
-    from millsim.scenes.base import RunContext, get_scene
+    from helpers import progress_of
 
-    seen, update = [], Progress.update
-
-    def record(self, fraction, note, *args):
-        seen.append((fraction, note))
-        return update(self, fraction, note, *args)
-
-    monkeypatch.setattr(driver.Progress, "update", record)
-    load_all()
-    scene = get_scene("packing")
-    scene.run(scene.resolve(overrides), RunContext(progress=True))
+    seen = progress_of(monkeypatch, "packing", overrides)
     fractions = [f for f, _ in seen]
     assert all(0.0 <= f <= 1.0 for f in fractions) and fractions == sorted(fractions)
     assert fractions[-1] == 1.0
