@@ -5,6 +5,7 @@ solid volume, an arc across the top of the drum, the size classes, the selection
 interval, the Hertz elastic energy of pairs and walls)."""
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,8 +13,10 @@ from scipy import stats
 
 from millsim.engine import PhysicsSpec
 from millsim.engine.mesh_io import liner_mesh, write_stl
+from millsim.models.breakage import tavares, tavares_materials
 from millsim.scenes import ballmill3d_charge as charge
 from millsim.scenes import ballmill3d_observables as obs
+from millsim.scenes import ballmill3d_rates as rates
 
 from one_particle import make_sim
 
@@ -165,3 +168,63 @@ def test_elastic_energy_is_hertzs_for_pairs_planes_and_cylinders():
     expected = 8 / 15 * e_star * (math.sqrt(r) * xi**2.5 + math.sqrt(r / 2) * xi**2.5
                                   + math.sqrt(r) * (0.5 * xi) ** 2.5)
     assert obs.elastic_energy(sim) == pytest.approx(expected, rel=1e-6)
+
+
+# ---- breakage predicted from the stress log ----------------------------------------------------
+MATERIALS = charge.REPO / "config" / "materials.yaml"
+
+
+def _mill(diameters, body, specific_energy_now, log):
+    """What StressBook reads of a Simulation: ore particles (material 0) of copper ore's density,
+    the energy each has absorbed in its contact now [J] and the drained stress log."""
+    r = 0.5 * np.asarray(diameters)
+    mass = 2930.0 * 4 / 3 * math.pi * r**3
+    particles = SimpleNamespace(radius=r, material=np.zeros(len(r), int), body=np.asarray(body),
+                                inv_mass=1 / mass)
+    breakage = SimpleNamespace(e_frac=np.ones(len(r)), e_acc=np.asarray(specific_energy_now) * mass,
+                               take_stress_log=lambda: log)
+    return SimpleNamespace(particles=particles, particle_ids=np.arange(len(r)), breakage=breakage)
+
+
+def test_the_compensator_counts_the_events_in_progress_at_both_ends():
+    """One event each, so no damage enters and S = 1 - F(E), F eq 1's fracture energy
+    distribution: a particle in an event at the end (30 J/kg so far) has Lambda = -ln(1 -
+    F(30)); one in an event at the start (20 J/kg by then) that ends with 50 J/kg has ln(1 -
+    F(20)) - ln(1 - F(50)); a member of a rigid body is not booked."""
+    mat = tavares_materials.load_materials(MATERIALS)["copper_ore"]
+    d = 0.006
+    book = rates.StressBook(mat, 0, d_min=0.001)
+    sim = _mill([d, d, d], body=[-1, 0, -1], specific_energy_now=[0.0, 0.0, 20.0], log=[])
+    book.register(sim)
+    book.open(sim)
+    ended = SimpleNamespace(particle_id=2, specific_energy=50.0, broke=False)
+    book.close(_mill([d, d, d], [-1, 0, -1], [30.0, 0.0, 0.0], [ended]))
+    survive = {e: 1 - float(tavares.fracture_energy_cdf(mat, d, np.array([e]))[0])
+               for e in (20.0, 30.0, 50.0)}
+    got = dict(zip((0, 2), (lam for _, lam in book.compensators())))
+    assert len(book.compensators()) == 2
+    assert got[0] == pytest.approx(-math.log(survive[30.0]), rel=1e-9)
+    assert got[2] == pytest.approx(math.log(survive[20.0]) - math.log(survive[50.0]), rel=1e-9)
+
+
+class _Book:
+    def __init__(self, lam):
+        self.lam = lam
+
+    def compensators(self):
+        return self.lam
+
+
+def test_the_z_score_and_p_value_of_a_small_prediction():
+    """z = (counted - predicted) / sqrt(predicted), p two-sided of the normal law, for a
+    prediction below one event; nothing predicted gives NaN for both, not a division by zero.
+    Events before t_w and classes are counted as the selection function's."""
+    lower = [0.004, 0.002]
+    predicted, counted, z, p = rates.compare(_Book([(0.005, 0.3), (0.0045, 0.2), (0.003, 0.1)]),
+                                             [0.5, 1.5, 2.0], [0.005, 0.005, 0.003], 1.0, lower)
+    assert predicted == pytest.approx([0.5, 0.1], rel=1e-12)
+    assert counted.tolist() == [1.0, 1.0]
+    assert z == pytest.approx((2 - 0.6) / math.sqrt(0.6), rel=1e-12)
+    assert p == pytest.approx(2 * stats.norm.sf((2 - 0.6) / math.sqrt(0.6)), rel=1e-9)
+    _, _, z, p = rates.compare(_Book([]), [], [], 1.0, lower)
+    assert math.isnan(z) and math.isnan(p)
