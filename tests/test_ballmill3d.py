@@ -67,8 +67,12 @@ def test_drive_work_equals_dissipation_plus_energy_change_with_breakage(milled):
 
 def test_power_is_torque_times_omega_and_the_drive_lifts_the_charge(milled):
     """P = T omega (every turning wall's torque is taken where its surface speed is), the
-    critical speed is sqrt(2 g / (D - d)), and the drive supplies power (P > 0, T > 0)."""
+    critical speed is sqrt(2 g / (D - d)), and the drive supplies power (P > 0, T > 0) and
+    holds the charge on the rising half of the drum (its arc against the shell, toe to
+    shoulder, centred at a positive angle below pi)."""
     values, ds, _ = milled
+    toe, shoulder = float(ds.toe_angle), float(ds.shoulder_angle)
+    assert toe < shoulder and 0 < 0.5 * (toe + shoulder) < math.pi
     omega_c = math.sqrt(2 * 9.81 / (values["drum_diameter"] - values["ball_diameter_max"]))
     assert float(ds.critical_speed) == pytest.approx(omega_c, rel=1e-12)
     assert float(ds.omega) == pytest.approx(values["n_over_nc"] * omega_c, rel=1e-12)

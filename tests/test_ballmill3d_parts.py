@@ -17,10 +17,14 @@ from millsim.models.breakage import tavares, tavares_materials
 from millsim.scenes import ballmill3d_charge as charge
 from millsim.scenes import ballmill3d_observables as obs
 from millsim.scenes import ballmill3d_rates as rates
+from millsim.scenes import load_all
+from millsim.scenes.base import REGISTRY
 
 from one_particle import make_sim
 
 SHIPPED = "examples/meshes/ballmill_liner.stl"
+load_all()
+SCENE = REGISTRY["ballmill3d"]
 
 
 def test_a_relative_liner_path_is_read_from_the_working_directory_before_the_repository(
@@ -228,3 +232,33 @@ def test_the_z_score_and_p_value_of_a_small_prediction():
     assert p == pytest.approx(2 * stats.norm.sf((2 - 0.6) / math.sqrt(0.6)), rel=1e-9)
     _, _, z, p = rates.compare(_Book([]), [], [], 1.0, lower)
     assert math.isnan(z) and math.isnan(p)
+
+
+# ---- the case as built ---------------------------------------------------------------------------
+def test_one_spectrum_bin_is_allowed_and_the_overlap_guard_ends_at_five_radii():
+    """The ranges the parameter table states: spectra_bins >= 1; max_overlap in (0, 5]."""
+    params = {p.name: p for p in SCENE.params}
+    assert params["spectra_bins"].parse(1) == 1
+    assert params["max_overlap"].parse(5.0) == 5.0
+    for name, value in (("spectra_bins", 0), ("max_overlap", 5.5)):
+        with pytest.raises(ValueError, match=f"^{name}: .*outside the allowed range"):
+            params[name].parse(value)
+
+
+def test_the_step_is_planned_for_the_shell_speed_plus_a_fall_across_the_drum():
+    """The Hertz step's impact speed: the shell's surface speed omega D / 2 plus a free fall
+    across the drum sqrt(2 g D), omega = n_over_nc sqrt(2 g / (D - d)) (Napier-Munn et al.
+    1996); and a record comes after round(interval / dt) steps, the rest of one after it."""
+    small = dict(drum_diameter=0.1, drum_length=0.03, ball_diameter_min=0.012,
+                 ball_diameter_max=0.012, ore_diameter_min=0.006, ore_diameter_max=0.006,
+                 filling=0.25, liner="", n_over_nc=0.75, records_per_revolution=20)
+    case = SCENE.build(SCENE.resolve(small))
+    omega = 0.75 * math.sqrt(2 * 9.81 / (0.1 - 0.012))
+    assert case.sim.policy.impact_speed == pytest.approx(omega * 0.05 + math.sqrt(2 * 9.81 * 0.1),
+                                                         rel=1e-12)
+    interval = 2 * math.pi / omega / 20
+    dt = case.sim.dt
+    case.last = SimpleNamespace(time=case.sim.time)
+    assert case.record_steps() == round(interval / dt)
+    case.last = SimpleNamespace(time=case.sim.time - 0.75 * interval)
+    assert case.record_steps() == round(0.25 * interval / dt)
