@@ -38,6 +38,37 @@ def test_monolayer_counts_and_hexagonal_spacing(rings, n):
         assert np.linalg.norm(xy, axis=1).max() == pytest.approx(rings * s)
 
 
+@pytest.mark.parametrize("rings", [2, 3])
+def test_the_monolayer_lists_its_rings_in_turn(rings):
+    """The centre, then the 6 k sites of ring k (k = 1..rings) before any site farther out: a
+    site's ring is the hexagon of circumradius k s it lies on, max(|x|, |x/2| + sqrt(3)/2 |y|)
+    / (sqrt(3)/2 s) rounded, from its position alone."""
+    s = 1.02 * D
+    xy = bed.hex_layer(rings, s)
+    c = math.sqrt(3.0) / 2.0
+    ring = np.rint(np.maximum(np.abs(xy[:, 1]) / c, np.abs(xy[:, 1]) / (2 * c)
+                              + np.abs(xy[:, 0])) / s).astype(int)
+    assert (np.diff(ring) >= 0).all()
+    assert np.bincount(ring).tolist() == [1] + [6 * k for k in range(1, rings + 1)]
+
+
+def test_a_record_books_the_bed_kinetic_and_ball_energy_of_the_state():
+    """The drop's record at a state set by hand: bed kinetic energy 1/2 sum m v^2 over the bed
+    (not the ball), the ball's energy 1/2 m v^2 + m g z."""
+    scene = get_scene("bed_impact")
+    case = scene.build(scene.resolve({"rings": 1, "layers": 1, "settle_time": 0}))
+    sim = case.sim
+    rng = np.random.default_rng(5)
+    v = rng.normal(0.0, 2.0, (sim.n_particles, 3))
+    sim.particles.v[:] = v
+    case._observe()
+    m = sim.masses()
+    assert case.recorded("bed_kinetic_energy")[-1] == pytest.approx(
+        0.5 * sum(m[k] * v[k] @ v[k] for k in range(1, sim.n_particles)), rel=1e-12)
+    assert case.recorded("ball_energy")[-1] == pytest.approx(
+        0.5 * m[0] * v[0] @ v[0] + m[0] * 9.81 * sim.particles.x[0, 2], rel=1e-12)
+
+
 def test_multilayer_bed_stacks_in_hollows_without_overlap():
     x = bed.bed_positions(3, 3, D, 1.02)
     layer = np.round((x[:, 2] - x[:, 2].min()) / D, 3)
