@@ -12,7 +12,7 @@ import pytest
 from scipy import stats
 
 from millsim.engine import PhysicsSpec
-from millsim.engine.mesh_io import liner_mesh, write_stl
+from millsim.engine.mesh_io import box_mesh, liner_mesh, write_stl
 from millsim.models.breakage import tavares, tavares_materials
 from millsim.scenes import ballmill3d_charge as charge
 from millsim.scenes import ballmill3d_observables as obs
@@ -172,6 +172,20 @@ def test_elastic_energy_is_hertzs_for_pairs_planes_and_cylinders():
     expected = 8 / 15 * e_star * (math.sqrt(r) * xi**2.5 + math.sqrt(r / 2) * xi**2.5
                                   + math.sqrt(r) * (0.5 * xi) ** 2.5)
     assert obs.elastic_energy(sim) == pytest.approx(expected, rel=1e-6)
+
+
+def test_elastic_energy_against_a_mesh_is_hertzs_at_the_nearest_facet(tmp_path):
+    """A sphere pressed xi into the top face of a block (a mesh wall, closed STL) stores
+    8/15 E* sqrt(r) xi^(5/2); one clear of it nothing."""
+    r, xi, young, poisson = 1e-3, 3e-5, 5e6, 0.3
+    path = tmp_path / "block.stl"
+    write_stl(path, *box_mesh((-0.01, -0.01, -0.02), (0.01, 0.01, 0.0)))
+    sim = make_sim((PhysicsSpec(dim=3, walls=True, mesh_walls=True), "hertz_mindlin"),
+                   [(0.002, 0.001, r - xi), (-0.005, 0.0, r + 1e-4)],
+                   walls=[dict(kind="mesh", file=str(path), material="m")])
+    e_star = young / (2 * (1 - poisson**2))
+    assert obs.elastic_energy(sim) == pytest.approx(8 / 15 * e_star * math.sqrt(r) * xi**2.5,
+                                                    rel=1e-6)
 
 
 # ---- breakage predicted from the stress log ----------------------------------------------------
