@@ -3,6 +3,7 @@ memory it needs exceeds what the run may use (RAM, cgroup, SLURM, --max-memory),
 and the largest value allowed; YAML files loaded with limits on size, depth and aliases. Nothing
 here runs a simulation: every case is refused while its parameters are resolved."""
 
+import math
 import re
 
 import pytest
@@ -45,6 +46,17 @@ def test_size_refused_up_front_with_the_largest_allowed(capsys, tmp_path, scene,
         get_scene(scene).resolve({key: str(largest)})
         with pytest.raises(ValueError, match=f"{key}: {largest + 1} {noun}"):
             get_scene(scene).resolve({key: str(largest + 1)})
+
+
+@pytest.mark.parametrize("scene, key, grids", [("ballmill2d", "grid_cells", 10),
+                                                ("stirred_mill", "cg_cells", 14)])
+def test_grids_are_estimated_as_docs_pipeline_states(capsys, tmp_path, scene, key, grids):
+    """docs/pipeline.md: the ball mill's grid_cells ten maps and the stirred mill's cg_cells 14
+    grids of cells^2 values, 8 B each: under 1 GiB the largest side is
+    floor(sqrt(2^30 / (8 grids)))."""
+    line = _refused(capsys, tmp_path, scene, "--set", f"{key}=100000", "--max-memory", "1G")
+    assert f"need at least {grids * 8 * 1e10 / 1e9:.3g} GB" in line, line
+    assert line.endswith(f"allowed up to {math.isqrt(2**30 // (8 * grids))} cells per side"), line
 
 
 def test_record_interval_bounded_by_the_records_it_keeps(capsys, tmp_path):
