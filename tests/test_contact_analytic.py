@@ -26,6 +26,15 @@ def test_linear_hw_restitution_and_contact_time(convention, target):
     assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
 
 
+def test_a_run_without_a_context_runs_in_the_default_one():
+    """Scene.run(values) with no RunContext: the same case as with RunContext()."""
+    scene = get_scene("collision")
+    values = scene.resolve(dict(contact_law="linear_hw", dim=2))
+    bare, _ = scene.run(values)
+    assert float(bare.restitution) == float(run_collision(contact_law="linear_hw",
+                                                          dim=2).restitution)
+
+
 def test_linear_conventions_differ_as_predicted():
     """Clipping the force ends the contact earlier and gives a larger e (Schwager & Poeschel)."""
     a = run_collision(contact_law="linear_hw", dim=2, convention="unclipped")

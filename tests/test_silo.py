@@ -87,6 +87,8 @@ def test_the_silo_plans_its_step_and_guard_for_twice_the_fall_from_the_pour():
     fall = math.sqrt(2.0 * 9.81 * SMALL["pour_height"])
     assert case.sim.dt_report.impact_speed == pytest.approx(2.0 * fall, rel=1e-12)
     assert case.sim.guards.v_max == pytest.approx(20.0 * fall, rel=1e-12)
+    # with neither dt nor dt_factor given, the step is the engine's recommended one (factor 1)
+    assert case.sim.dt == case.sim.dt_report.recommended
 
 
 def test_the_silo_reports_progress_in_zero_to_one_and_one_when_it_stops():

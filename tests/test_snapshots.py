@@ -277,6 +277,35 @@ def test_a_2d_run_draws_its_walls_as_segments_in_the_plane(tmp_path):
     assert line[:, 0].min() < -DRUM and line[:, 0].max() > DRUM  # across the drum
 
 
+def test_members_of_a_kinematic_body_are_flagged_and_free_particles_not(tmp_path):
+    """The per-particle `kinematic` field: 1 for the members of body 0 (the first body, e.g. a
+    ball mill's drum), 0 for free particles; ids as the run numbers them."""
+    from one_particle import BODY_HERTZ, make_sim
+
+    sim = make_sim(BODY_HERTZ, [(0, 0, 0), (0.01, 0, 0), (0.02, 0, 0)], body=[0, 0, -1],
+                   bodies=[dict(kind="rotate", center=(0, 0, 0), axis=(0, 0, 1), rate=1.0)])
+    path = tmp_path / "k.h5"
+    ctx = RunContext(snapshots=SnapshotWriter(path, dim=3))
+    ctx.snapshot(sim)
+    ctx.snapshots.close()
+    with h5py.File(path) as h5:
+        frame = h5["frames/000000"]
+        assert frame["kinematic"][()].tolist() == [1, 1, 0]
+        assert frame["particle_id"][()].tolist() == [0, 1, 2]
+
+
+@pytest.mark.parametrize("frame_bytes, warned", [(1_000_000, True), (999_000, False)])
+def test_snapshots_above_1_gb_are_warned_of(capsys, frame_bytes, warned):
+    """docs/pipeline.md: more than 1 GB of snapshots is said in a warning before the run goes
+    on: 1001 frames (duration 1 s / record_interval 1 ms) of 1 MB are 1.001 GB, of 999 kB not."""
+    writer = type("Writer", (), dict(failure=None, frame_bytes=frame_bytes, path="s.h5",
+                                     free_bytes=lambda self: None))()
+    RunContext(snapshots=writer).check_snapshot_space({"duration": 1.0, "record_interval": 1e-3})
+    err = capsys.readouterr().err
+    assert ("millsim: warning: --snapshots: about" in err) == warned, err
+    assert not warned or "for 1001 frames" in err
+
+
 def test_vtk_reads_every_block_at_every_time(tmp_path):
     """ParaView's XDMF reader (VTK's) gives the three blocks at each time, also where a frame
     has no contact (an empty grid, which it would drop)."""
