@@ -32,6 +32,7 @@ from millsim.engine.walls import BY_NAME, wall_contact
 from millsim.models import Interaction, Material, MaterialTable
 from millsim.scenes import load_all
 from millsim.scenes.base import REGISTRY, get_scene
+from millsim.scenes.config_walls import scene_walls
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = PhysicsSpec(dim=3, walls=True, translating_walls=True, mesh_walls=True, ramped_walls=True)
@@ -202,15 +203,52 @@ def _open_mesh(path):
     ("[{kind: cylinder_inner, axis: [0, 0, 1], radius: 400, material: particle}]",
      r"walls\[0\]\.radius: 400 m is beyond 100 m"),
     ("[{kind: mesh, file: MM, material: particle}]", r"walls\[0\]\.scale: the mesh spans 200 m"),
+    ("[{kind: plane, point: [0, a, 0], normal: [0, 0, 1], material: particle}]",
+     r"walls\[0\]\.point: must be 3 finite numbers, got \[0, 'a', 0\]"),
+    ("[{kind: plane, normal: [0, 0, 1], file: nowhere.stl, material: particle}]",
+     r"walls\[0\]: unknown keys \['file'\] for a plane wall"),
+    ("[{kind: mesh, file: BOX, triangle_materials: [particle, particle, steel, particle, particle, "
+     "particle, particle, particle, particle, particle, particle, particle], material: particle}]",
+     r"walls\[0\]\.triangle_materials\[2\]: 'steel' is not a material of scene 'collision'"),
 ])
 def test_bad_walls_are_refused_in_one_line_naming_the_key(tmp_path, walls, needle):
     walls = walls.replace("OPEN", str(_open_mesh(tmp_path / "open.stl")))
     if "MM" in walls:  # a box 200 mm wide, its file in mm given without scale
         write_stl(tmp_path / "mm.stl", *box_mesh((0, 0, 0), (200.0, 200.0, 200.0)))
         walls = walls.replace("MM", str(tmp_path / "mm.stl"))
+    if "BOX" in walls:  # 12 triangles
+        write_stl(tmp_path / "box.stl", *box_mesh((0, 0, 0), (0.01, 0.01, 0.01)))
+        walls = walls.replace("BOX", str(tmp_path / "box.stl"))
     with pytest.raises(ValueError) as err:
         get_scene("collision").resolve({"walls": walls})
     assert re.search(needle, str(err.value)) and "\n" not in str(err.value)
+
+
+def test_text_that_is_not_yaml_is_refused_with_the_parsers_reason_cut_at_160_characters():
+    """One line: the YAML parser's message, its whitespace collapsed, cut at 160 characters."""
+    text = "[{kind: plane, normal: [0, 0, 1]"
+    with pytest.raises(yaml.YAMLError) as parser:
+        yaml.safe_load(text)
+    reason = " ".join(str(parser.value).split())
+    assert len(reason) > 160
+    with pytest.raises(ValueError) as err:
+        get_scene("collision").resolve({"walls": text})
+    assert str(err.value) == f"walls: not YAML ({reason[:160]})"
+
+
+def test_walls_switch_on_only_the_motions_they_declare():
+    """A still plane needs walls alone; a velocity, translating walls; a ramp, ramped walls
+    (each switch is another compiled variant: none is asked for without cause)."""
+    plane = dict(kind="plane", normal=(0, 0, 1), material="particle")
+    base = PhysicsSpec(dim=3)
+    assert scene_walls({"walls": [plane]}, base, [])[0] == PhysicsSpec(dim=3, walls=True)
+    moving = dict(plane, velocity=(0.0, 0.0, 0.1))
+    assert scene_walls({"walls": [moving]}, base, [])[0] == PhysicsSpec(
+        dim=3, walls=True, translating_walls=True)
+    ramped = dict(plane, omega=1.0, ramp=0.5)
+    assert scene_walls({"walls": [ramped]}, base, [])[0] == PhysicsSpec(
+        dim=3, walls=True, ramped_walls=True)
+    assert scene_walls({"walls": []}, base, []) == (base, [])
 
 
 # ---- the schema, the pipeline, the docs --------------------------------------------------------
