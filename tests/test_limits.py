@@ -160,5 +160,7 @@ def test_a_drop_weight_test_counts_a_striker_per_particle():
         largest = int(re.search(r"allowed up to (\d+) particles$", str(refused.value))[1])
         scene.resolve({"n_particles": str(largest)})
         scene.resolve({"n_particles": str(largest // 2), "mode": "drop_weight"})
-        with pytest.raises(ValueError, match="n_particles: "):
+        # the line names the count the user gave and the largest allowed in the same terms
+        with pytest.raises(ValueError, match=rf"^n_particles: {largest // 2 + 1} particles need "
+                                             rf".* allowed up to {largest // 2} particles$"):
             scene.resolve({"n_particles": str(largest // 2 + 1), "mode": "drop_weight"})

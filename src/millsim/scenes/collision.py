@@ -100,8 +100,9 @@ class CollisionCase(Case):
         Output("restitution", (), "1", "measured coefficient of restitution",
                "last normal velocity / first, over cos(angle) for an oblique impact"),
         Output("contact_time", (), "s", "measured contact duration",
-               "from the zero crossing of the overlap to zero overlap (unclipped) or zero normal "
-               "force (clipped), both interpolated between steps"),
+               "from the zero crossing of the overlap (interpolated between steps) to zero "
+               "overlap, interpolated (unclipped), or to the first step without normal force "
+               "(clipped)"),
         Output("restitution_analytic", (), "1", "analytic coefficient of restitution"),
         Output("contact_time_analytic", (), "s", "analytic contact duration (NaN: none)"),
         Output("max_overlap", (), "m", "largest overlap"),

@@ -57,11 +57,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..engine import Guards, PhysicsSpec, Simulation
+from ..engine import BYTES_PER_PARTICLE, Guards, PhysicsSpec, Simulation
 from ..models import Interaction, Material, MaterialTable, TavaresModel
 from ..models.breakage import progeny_families, tavares, tavares_materials
 from ..models.breakage import tavares_predictions as tv
 from ..models.breakage.replacement import BREAKAGE_AT, TavaresReplacement, product_passing
+from ..util.memory import check_memory
 from ..util.stats import binomial_interval, bootstrap_interval
 from .base import TIME_STEP_PARAMS, Param, Scene, check_particle_memory, register, step_policy
 from .config_walls import scene_walls
@@ -117,8 +118,12 @@ def _check(values):
     # a bad materials file or material is refused before any job runs
     tavares_materials.check_material(values["materials_file"], values["material"])
     # a drop-weight test has a striker per particle
-    check_particle_memory("n_particles",
-                          values["n_particles"] * (2 if values["mode"] == "drop_weight" else 1))
+    # the line names the count as given and the largest allowed in the same terms
+    if values["mode"] == "drop_weight":
+        check_memory("n_particles", values["n_particles"], lambda n: 2 * n * BYTES_PER_PARTICLE,
+                     "particles", f"{BYTES_PER_PARTICLE} B each and as much for its striker")
+    else:
+        check_particle_memory("n_particles", values["n_particles"])
 
 
 @dataclasses.dataclass
