@@ -246,6 +246,9 @@ def test_the_z_score_and_p_value_of_a_small_prediction():
     assert p == pytest.approx(2 * stats.norm.sf((2 - 0.6) / math.sqrt(0.6)), rel=1e-9)
     _, _, z, p = rates.compare(_Book([]), [], [], 1.0, lower)
     assert math.isnan(z) and math.isnan(p)
+    # a class nothing broke in is counted 0, the last one too
+    _, counted, _, _ = rates.compare(_Book([(0.005, 0.3)]), [1.5], [0.005], 1.0, lower)
+    assert counted.tolist() == [1.0, 0.0]
 
 
 # ---- the case as built ---------------------------------------------------------------------------
