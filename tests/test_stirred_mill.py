@@ -231,6 +231,18 @@ def test_the_start_up_lasts_the_time_of_its_revolutions_at_full_speed(rpm, revol
     assert g["omega"] == pytest.approx(2 * PI / period, rel=1e-12)
 
 
+def test_the_paper_runs_start_up_and_record_as_the_docs_say():
+    """docs/stirred_mill.md: config/paper.yaml's stirred-mill runs take 0.5 revolutions of
+    start-up and 40 records per revolution (the scene's default where the file says none)."""
+    import yaml
+
+    path = os.path.join(os.path.dirname(__file__), "..", "config", "paper.yaml")
+    with open(path) as f:
+        given = yaml.safe_load(f)["stirred_mill"]["parameters"]
+    values = SCENE.resolve(given)
+    assert values["ramp_revolutions"] == 0.5 and values["records_per_revolution"] == 40
+
+
 def test_the_shaft_reaches_full_speed_after_the_start_up(tmp_path, monkeypatch):
     """With a start-up (ramp_revolutions), the shaft (an analytic wall) follows the agitator's
     constant acceleration chunk by chunk and then turns at the full rpm for the rest of the run:
