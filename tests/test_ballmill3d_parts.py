@@ -1,8 +1,10 @@
 """The parts of scene ``ballmill3d`` that need no run, each against a closed form or a count by
 hand: where a liner path is read from, the lifter gap of a ring of rays, the refusal of a liner
-off the drum's axis, the charge's ball and ore counts, and the observables (the band profile's
+off the drum's axis, the charge's ball and ore counts; the observables (the band profile's
 solid volume, an arc across the top of the drum, the size classes, the selection function's
-interval, the Hertz elastic energy of pairs and walls)."""
+interval, the Hertz elastic energy of pairs and walls); the breakage predicted from a stress log
+(the compensator of a sequence, z and p); and the case as built (parameter ranges, the step's
+impact speed, the steps to a record)."""
 
 import math
 from types import SimpleNamespace
@@ -48,7 +50,7 @@ def test_the_lifter_gap_of_a_ring_of_rays():
     n, shell, tip = 360, 0.05, 0.04
     half = 0.045
     dist = np.full(n, shell)
-    dist[[0, 1, 2, 100, 101, 250]] = tip  # free runs of 97, 148 and 112 rays
+    dist[[0, 1, 2, 100, 101, 250]] = tip  # free runs of 97, 148 and 109 rays
     assert charge.lifter_gap(dist, shell, tip) == pytest.approx(2 * half * math.sin(97 * math.pi / n),
                                                                 rel=1e-12)
     assert charge.lifter_gap(np.full(n, 0.042), shell, tip) == 0.0
