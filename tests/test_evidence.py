@@ -427,3 +427,42 @@ def test_the_repositorys_registry_is_read_and_well_formed():
 
     entries = evidence.read_registry(path)
     assert entries and all(set(e["identical"]) <= set(SCENE_MODULES) for e in entries)
+
+
+@pytest.mark.parametrize("page, scene, block", [
+    ("ballmill_paper", "ballmill2d", "ballmill"),
+    ("bed_impact_paper", "bed_impact", "bed_impact"),
+])
+def test_a_paper_page_was_run_with_the_parameters_config_paper_gives_today(page, scene, block):
+    """A results page lists the parameters its cases were run with ("fixed: k = v, ..."); the
+    scene's parameters from config/paper.yaml (its scalars, the rest at the scene's defaults)
+    must still be those, or re-running the page's command would run other cases."""
+    import math
+
+    import yaml
+
+    from millsim.scenes.base import get_scene
+
+    root = os.path.join(os.path.dirname(__file__), "..")
+    with open(os.path.join(root, "docs", "results", f"{page}.md")) as f:
+        line = re.search(r"^- fixed: (.*)$", f.read(), re.M)[1]
+    fixed = dict(item.split(" = ", 1) for item in line.split(", "))
+    with open(os.path.join(root, "config", "paper.yaml")) as f:
+        block_params = yaml.safe_load(f)[block]
+    block_params = block_params.get("parameters", block_params)
+    sc = get_scene(scene)
+    names = {p.name for p in sc.params}
+    values = sc.resolve({k: v for k, v in block_params.items()
+                         if k in names and not isinstance(v, (list, dict))})
+    compared = 0
+    for key, text in fixed.items():
+        if key not in values:
+            continue
+        got = values[key]
+        try:
+            same = math.isclose(float(text), float(got), rel_tol=1e-9, abs_tol=0.0)
+        except (TypeError, ValueError):
+            same = str(got) == text
+        assert same, f"{page}: {key} = {text} on the page, {got!r} from config/paper.yaml"
+        compared += 1
+    assert compared >= 5
