@@ -306,6 +306,21 @@ def test_snapshots_above_1_gb_are_warned_of(capsys, frame_bytes, warned):
     assert not warned or "for 1001 frames" in err
 
 
+@pytest.mark.parametrize("values, frames", [
+    ({"revolutions": 2.0, "records_per_revolution": 10}, 21),
+    ({"steps": 1000, "record_every": 10}, 101),
+    ({"max_time": 0.01, "record_interval": 1e-3}, 11),
+])
+def test_every_scenes_frames_are_counted_from_its_own_cadence(capsys, values, frames):
+    """docs/pipeline.md: frames from duration or max_time / record_interval, steps /
+    record_every or revolutions x records_per_revolution, whichever pair a scene has (one
+    frame more, the first); 100 MB frames make each warn with its count."""
+    writer = type("Writer", (), dict(failure=None, frame_bytes=10**8, path="s.h5",
+                                     free_bytes=lambda self: None))()
+    RunContext(snapshots=writer).check_snapshot_space(values)
+    assert f"for {frames} frames" in capsys.readouterr().err
+
+
 def test_vtk_reads_every_block_at_every_time(tmp_path):
     """ParaView's XDMF reader (VTK's) gives the three blocks at each time, also where a frame
     has no contact (an empty grid, which it would drop)."""
