@@ -294,12 +294,18 @@ def test_members_of_a_kinematic_body_are_flagged_and_free_particles_not(tmp_path
         assert frame["particle_id"][()].tolist() == [0, 1, 2]
 
 
+def _sized_writer(frame_bytes):
+    """What check_snapshot_space reads of a SnapshotWriter: a first frame of ``frame_bytes`` and
+    a disk of unknown free space."""
+    return type("Writer", (), dict(failure=None, frame_bytes=frame_bytes, path="s.h5",
+                                   free_bytes=lambda self: None))()
+
+
 @pytest.mark.parametrize("frame_bytes, warned", [(1_000_000, True), (999_000, False)])
 def test_snapshots_above_1_gb_are_warned_of(capsys, frame_bytes, warned):
     """docs/pipeline.md: more than 1 GB of snapshots is said in a warning before the run goes
     on: 1001 frames (duration 1 s / record_interval 1 ms) of 1 MB are 1.001 GB, of 999 kB not."""
-    writer = type("Writer", (), dict(failure=None, frame_bytes=frame_bytes, path="s.h5",
-                                     free_bytes=lambda self: None))()
+    writer = _sized_writer(frame_bytes)
     RunContext(snapshots=writer).check_snapshot_space({"duration": 1.0, "record_interval": 1e-3})
     err = capsys.readouterr().err
     assert ("millsim: warning: --snapshots: about" in err) == warned, err
@@ -315,8 +321,7 @@ def test_every_scenes_frames_are_counted_from_its_own_cadence(capsys, values, fr
     """docs/pipeline.md: frames from duration or max_time / record_interval, steps /
     record_every or revolutions x records_per_revolution, whichever pair a scene has (one
     frame more, the first); 100 MB frames make each warn with its count."""
-    writer = type("Writer", (), dict(failure=None, frame_bytes=10**8, path="s.h5",
-                                     free_bytes=lambda self: None))()
+    writer = _sized_writer(10**8)
     RunContext(snapshots=writer).check_snapshot_space(values)
     assert f"for {frames} frames" in capsys.readouterr().err
 
