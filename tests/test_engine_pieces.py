@@ -290,3 +290,45 @@ def test_a_disk_given_a_three_dimensional_spin_keeps_only_its_spin_about_z():
     m = rho * math.pi * r * r * sim.thickness
     expected = 0.5 * m * (v[0] ** 2 + v[1] ** 2) + 0.5 * (0.5 * m * r * r) * wz ** 2
     assert sim.kinetic_energy() == pytest.approx(expected, rel=1e-12)
+
+
+def test_rolling_friction_needs_a_rolling_column_and_column_0_is_one(monkeypatch):
+    """ContactLaw.rolling_column is the parameter row's column of the rolling-friction
+    coefficient, -1 for none (models/contact/base.py): a law without one is refused for
+    rolling_friction in one line, a plug-in law keeping its coefficient in column 0 is not."""
+    table = MaterialTable([Material("m", 2500.0, 5e6, 0.3)],
+                          {"*": Interaction(restitution=0.5, friction=0.3)}, "hertz_mindlin")
+    spec = PhysicsSpec(dim=3, rolling_friction=True, gravity=False)
+
+    def build():
+        return Simulation(spec, table, x=[[0.0, 0.0, 0.0]], radius=[1e-3], material="m")
+
+    law = table.law if isinstance(table.law, type) else type(table.law)
+    monkeypatch.setattr(law, "rolling_column", 0)
+    assert build().law.rolling_column == 0
+    monkeypatch.setattr(law, "rolling_column", -1)
+    with pytest.raises(ValueError, match=r"^rolling_friction: contact_law 'hertz_mindlin' has no "
+                                         r"rolling friction coefficient"):
+        build()
+
+
+@pytest.mark.parametrize("name", ["linear_hw", "linear_history", "hertz_mindlin", "hertz_hw"])
+def test_a_law_has_a_rolling_column_exactly_where_it_takes_a_rolling_friction(name):
+    """A law offers rolling friction when it declares a ``rolling_friction`` interaction
+    parameter; then its rolling_column is where its parameter row keeps that value, else -1
+    and a run asking for rolling friction is refused."""
+    from millsim.models.contact import LAWS
+
+    law = LAWS[name]
+    mat = Material("m", 2500.0, 5e6, 0.3)
+    if "rolling_friction" in law.parameter_names:
+        row = law.parameter_row(mat, mat, {"rolling_friction": 0.0123, "normal_stiffness": 1e3},
+                                "clipped")
+        assert law.rolling_column >= 0 and row[law.rolling_column] == 0.0123
+        return
+    assert law.rolling_column == -1
+    table = MaterialTable([mat], {"*": Interaction(restitution=0.5, friction=0.3,
+                                                   normal_stiffness=1e3)}, name)
+    with pytest.raises(ValueError, match=rf"^rolling_friction: contact_law {name!r} has no"):
+        Simulation(PhysicsSpec(dim=law.dims[-1], rolling_friction=True, gravity=False), table,
+                   x=[[0.0, 0.0, 0.0]], radius=[1e-3], material="m")
