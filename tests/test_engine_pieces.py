@@ -303,10 +303,9 @@ def test_rolling_friction_needs_a_rolling_column_and_column_0_is_one(monkeypatch
     def build():
         return Simulation(spec, table, x=[[0.0, 0.0, 0.0]], radius=[1e-3], material="m")
 
-    law = table.law if isinstance(table.law, type) else type(table.law)
-    monkeypatch.setattr(law, "rolling_column", 0)
+    monkeypatch.setattr(table.law, "rolling_column", 0)  # on the law's instance only
     assert build().law.rolling_column == 0
-    monkeypatch.setattr(law, "rolling_column", -1)
+    monkeypatch.setattr(table.law, "rolling_column", -1)
     with pytest.raises(ValueError, match=r"^rolling_friction: contact_law 'hertz_mindlin' has no "
                                          r"rolling friction coefficient"):
         build()
