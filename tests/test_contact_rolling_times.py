@@ -262,3 +262,40 @@ def test_linear_contact_time_against_ode(k, m, gamma):
     t_c, w0 = linear_contact_time(k, m, gamma)
     assert t_c == pytest.approx(sol.t_events[0][0], rel=1e-7)
     assert w0 == pytest.approx(math.sqrt(k / m), rel=1e-12)
+
+
+@pytest.mark.parametrize("zeta", [0.3, 1.0, 2.0, 5.0])
+@pytest.mark.parametrize("clipped", [True, False])
+def test_linear_head_on_collision_against_ode_also_overdamped(zeta, clipped):
+    """Head-on linear spring-dashpot collision xi'' = -w0^2 xi - 2 zeta w0 xi', xi' = 1 at touch,
+    integrated here: clipped, it ends when the force xi + 2 zeta xi' / w0 reaches zero; unclipped,
+    when the overlap does (never, for zeta >= 1: restitution 0). Against linear_collision_time
+    and linear_restitution, and the clipped restitution inverted by damping_ratio. Overdamped and
+    critical contacts (the restitutions below exp(-2) = 0.135) had no test (issue 47, seed 57
+    `spring_dashpot:49`, `:52`, `:53`: the critical branch taken for every overdamped contact, a
+    decay rate dropped, a ratio of rates made a product)."""
+    from millsim.models.contact.spring_dashpot import (
+        damping_ratio,
+        linear_collision_time,
+        linear_restitution,
+    )
+
+    w0 = 2.5e4  # 1/s: times scale as 1/w0, the restitution not at all; 30 / w0 outlasts them all
+    if clipped:
+        end = lambda _, y: y[0] + 2.0 * zeta * y[1] / w0  # noqa: E731  the force / k
+    else:
+        end = lambda _, y: y[0]  # noqa: E731
+    end.terminal, end.direction = True, -1
+    sol = solve_ivp(lambda _, y: [y[1], -w0**2 * y[0] - 2.0 * zeta * w0 * y[1]],
+                    (1e-15, 30.0 / w0), [1e-15, 1.0], events=end, method="DOP853", rtol=1e-11,
+                    atol=1e-30)
+    t_c = linear_collision_time(w0, zeta * w0, clipped)
+    e = linear_restitution(zeta, clipped)
+    if not clipped and zeta >= 1.0:
+        assert len(sol.t_events[0]) == 0  # the overlap never closes
+        assert math.isinf(t_c) and e == 0.0
+        return
+    assert t_c == pytest.approx(sol.t_events[0][0], rel=1e-7)
+    assert e == pytest.approx(-sol.y_events[0][0][1], rel=1e-7)
+    convention = "clipped" if clipped else "unclipped"
+    assert damping_ratio(e, convention) == pytest.approx(zeta, rel=1e-7)
