@@ -299,3 +299,31 @@ def test_linear_head_on_collision_against_ode_also_overdamped(zeta, clipped):
     assert e == pytest.approx(-sol.y_events[0][0][1], rel=1e-7)
     convention = "clipped" if clipped else "unclipped"
     assert damping_ratio(e, convention) == pytest.approx(zeta, rel=1e-7)
+
+
+@pytest.mark.parametrize("law", ["linear_hw", "linear_history"])
+def test_a_linear_laws_contact_time_is_its_damped_half_period(law):
+    """ContactLaw.contact_time, the duration a scene sizes its step or sampling by (the stirred
+    mill's, a plug-in scene's): for a linear law the damped half period pi / sqrt(k/m* - gamma^2/4)
+    of its normal ODE, integrated here, with gamma given (linear_hw) or from the restitution by the
+    clipped relation inverted here (linear_history). No scene calls linear_hw's, so it went
+    unchecked (issue 47, seed 57 `linear_hw:98`: the undamped frequency returned instead)."""
+    from millsim.models import Material
+    from millsim.models.contact import LAWS
+
+    from helpers import clipped_damping_ratio
+
+    k, m_eff, e = 2e5, 3e-3, 0.6
+    w0 = math.sqrt(k / m_eff)
+    gamma = 2.0 * clipped_damping_ratio(e) * w0
+    values = {"normal_stiffness": k, "normal_damping_rate": gamma, "tangential_damping_rate": 50.0,
+              "restitution": e, "friction": 0.4, "tangential_stiffness_ratio": 2.0 / 7.0}
+    mat = Material("m", 2500.0)
+    row = LAWS[law].parameter_row(mat, mat, {n: values[n] for n in LAWS[law].parameter_names},
+                                  "clipped")
+    end = lambda _, y: y[0]  # noqa: E731
+    end.terminal, end.direction = True, -1
+    sol = solve_ivp(lambda _, y: [y[1], -k / m_eff * y[0] - gamma * y[1]], (1e-12, 1.0),
+                    [1e-12, 1.0], events=end, method="DOP853", rtol=1e-11, atol=1e-16)
+    assert LAWS[law].contact_time(row, m_eff, 1e-3, 2.0) == pytest.approx(sol.t_events[0][0],
+                                                                          rel=1e-7)
