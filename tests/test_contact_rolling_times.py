@@ -327,3 +327,21 @@ def test_a_linear_laws_contact_time_is_its_damped_half_period(law):
                     [1e-12, 1.0], events=end, method="DOP853", rtol=1e-11, atol=1e-16)
     assert LAWS[law].contact_time(row, m_eff, 1e-3, 2.0) == pytest.approx(sol.t_events[0][0],
                                                                           rel=1e-7)
+
+
+@pytest.mark.parametrize("clip", [True, False])
+def test_the_damped_hertz_restitution_depends_on_the_damping_alone(clip):
+    """With the EDEM damping beta_term sqrt(S_n m*) the Hertz collision is self-similar: its
+    restitution depends on beta_term only, not on mass, radius, modulus or speed (the reason
+    hertz_restitution solves one ODE in units where all are 1). hertz_reference, the same ODE in SI
+    units, must return that restitution at every scale (issue 47, read ahead for seed 57
+    `hertz_mindlin:134`: its restitution multiplied by the speed instead of divided)."""
+    from millsim.models.contact.hertz_mindlin import hertz_reference, hertz_restitution
+
+    beta_term = 0.5
+    e = hertz_restitution(beta_term, clip)
+    assert 0.2 < e < 0.9  # damped, away from both ends
+    for m_eff, r_eff, e_star, speed in [(1e-5, 1e-3, 1e9, 1.0), (2e-3, 5e-3, 7e10, 0.3),
+                                        (0.5, 0.04, 1.1e11, 12.0)]:
+        e_si, _ = hertz_reference(m_eff, r_eff, e_star, beta_term, speed, clip)
+        assert e_si == pytest.approx(e, rel=1e-8)
