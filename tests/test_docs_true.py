@@ -5,6 +5,7 @@ and are left out."""
 
 import importlib
 import inspect
+import math
 import pkgutil
 import re
 from pathlib import Path
@@ -130,3 +131,32 @@ def test_the_engine_guide_names_every_physics_switch():
     guide = (ROOT / "docs" / "engine.md").read_text()
     missing = [f for f in PhysicsSpec.__dataclass_fields__ if f"`{f}`" not in guide]
     assert missing == []
+
+
+def test_the_engine_guide_tables_every_contact_laws_constants():
+    """docs/engine.md's table of the constants each law takes from an Interaction: the same
+    laws, constants, defaults ("required": none) and allowed ranges as the laws declare
+    (``ContactLaw.parameters``), so that a user reads what the code does (issue 47, seed 57:
+    a law's default friction or its restitution's upper end changed, and no test saw it)."""
+    from fractions import Fraction
+
+    from millsim.models.contact import LAWS
+
+    guide = (ROOT / "docs" / "engine.md").read_text()
+    rows = re.findall(r"^\| `(\w+)` \| `(\w+)` \| [^|]+ \| ([^|]+) \| ([\[(])(\S+), (\S+)([\])]) \|$",
+                      guide, re.M)
+    documented = {(law, name): (default.strip(), lo_bracket, lo, hi, hi_bracket)
+                  for law, name, default, lo_bracket, lo, hi, hi_bracket in rows}
+    declared = {}
+    for law in LAWS.values():
+        for p in law.parameters:
+            default = "required" if p.default is None else p.default
+            hi = math.inf if p.hi is None else p.hi
+            declared[(law.name, p.name)] = (default, "(" if p.lo_open else "[", p.lo, hi,
+                                            ")" if p.hi_open or hi == math.inf else "]")
+    assert sorted(documented) == sorted(declared)
+    for key, (default, lo_bracket, lo, hi, hi_bracket) in documented.items():
+        want = declared[key]
+        got = (default if default == "required" else float(Fraction(default)), lo_bracket,
+               float(lo), float(hi), hi_bracket)
+        assert got == want, key
