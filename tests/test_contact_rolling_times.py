@@ -341,7 +341,7 @@ def test_the_damped_hertz_restitution_depends_on_the_damping_alone(clip):
     beta_term = 0.5
     e = hertz_restitution(beta_term, clip)
     assert 0.2 < e < 0.9  # damped, away from both ends
-    for m_eff, r_eff, e_star, speed in [(1e-5, 1e-3, 1e9, 1.0), (2e-3, 5e-3, 7e10, 0.3),
+    for m_eff, r_eff, modulus, speed in [(1e-5, 1e-3, 1e9, 1.0), (2e-3, 5e-3, 7e10, 0.3),
                                         (0.5, 0.04, 1.1e11, 12.0)]:
-        e_si, _ = hertz_reference(m_eff, r_eff, e_star, beta_term, speed, clip)
+        e_si, _ = hertz_reference(m_eff, r_eff, modulus, beta_term, speed, clip)
         assert e_si == pytest.approx(e, rel=1e-8)
