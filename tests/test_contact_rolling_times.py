@@ -345,3 +345,23 @@ def test_the_damped_hertz_restitution_depends_on_the_damping_alone(clip):
                                         (0.5, 0.04, 1.1e11, 12.0)]:
         e_si, _ = hertz_reference(m_eff, r_eff, modulus, beta_term, speed, clip)
         assert e_si == pytest.approx(e, rel=1e-8)
+
+
+@pytest.mark.parametrize("e", [1.0, 0.9, 0.3, 0.05])
+@pytest.mark.parametrize("convention", ["clipped", "unclipped"])
+def test_the_damping_of_a_restitution_returns_it_through_the_ode(e, convention):
+    """damping_ratio(e), the damping the linear laws are given for a restitution e, integrated
+    here (xi'' = -xi - 2 zeta xi', ended at zero force when clipped, zero overlap when not) returns
+    e, the elastic e = 1 (no damping) included (issue 47, seed 57 `spring_dashpot:77`: e = 1 given
+    critical damping)."""
+    from millsim.models.contact.spring_dashpot import damping_ratio
+
+    zeta = damping_ratio(e, convention)
+    if convention == "clipped":
+        end = lambda _, y: y[0] + 2.0 * zeta * y[1]  # noqa: E731
+    else:
+        end = lambda _, y: y[0]  # noqa: E731
+    end.terminal, end.direction = True, -1
+    sol = solve_ivp(lambda _, y: [y[1], -y[0] - 2.0 * zeta * y[1]], (1e-15, 30.0), [1e-15, 1.0],
+                    events=end, method="DOP853", rtol=1e-11, atol=1e-30)
+    assert -sol.y_events[0][0][1] == pytest.approx(e, rel=1e-7)
