@@ -15,7 +15,7 @@ from functools import cache
 
 from scipy.optimize import brentq
 
-from ...engine.integrators import GEAR_OMEGA_DT_LIMIT
+from ...engine.integrators import DAMPING_LIMIT, GEAR_OMEGA_DT_LIMIT
 from ...engine.timestep import STEPS_PER_CONTACT_LIMIT, STEPS_PER_CONTACT_RECOMMENDED, StepBound
 
 
@@ -28,14 +28,29 @@ def linear_contact_time(stiffness, m_eff, damping_rate):
 
 
 def linear_contact_bound(kn, m_eff, gamma, names, integrator):
-    """(step bound, contact time) of a linear contact of stiffness kn and damping rate gamma."""
+    """(step bound, contact time) of a linear contact of stiffness kn and damping rate gamma.
+
+    Beyond the collision time's share, the dashpot's own explicit limit: a head-on contact's
+    relative normal speed decays at gamma, so gamma dt <= DAMPING_LIMIT. It binds from a damping
+    ratio near 0.85 (a clipped restitution below about 0.16), where the collision time no longer
+    shrinks with the damping; without it a head-on collision at e = 0.01 rebounded at 3.5 times
+    its speed at the accepted step (docs/engine.md, "Time step and guards"). Its recommended
+    step keeps the contacts' ratio to the limit (STEPS_PER_CONTACT_RECOMMENDED /
+    STEPS_PER_CONTACT_LIMIT)."""
     t_c, w0 = linear_contact_time(kn, m_eff, gamma)
     limit = t_c / STEPS_PER_CONTACT_LIMIT
+    recommended = t_c / STEPS_PER_CONTACT_RECOMMENDED
     what = f"the linear collision time {t_c:.4g} s of the {names} (m_eff = {m_eff:.4g} kg)"
     if integrator == "gear":
         limit = min(limit, GEAR_OMEGA_DT_LIMIT / w0)
         what += f" and Gear stability w0 dt <= {GEAR_OMEGA_DT_LIMIT}"
-    return StepBound("linear_contact", what, limit, t_c / STEPS_PER_CONTACT_RECOMMENDED), t_c
+    dashpot = DAMPING_LIMIT[integrator] / gamma if gamma > 0 else math.inf
+    if dashpot < limit:
+        limit = dashpot
+        recommended = min(recommended, dashpot * STEPS_PER_CONTACT_LIMIT
+                          / STEPS_PER_CONTACT_RECOMMENDED)
+        what += f" and its dashpot gamma_N = {gamma:.4g} 1/s (gamma_N dt <= {DAMPING_LIMIT[integrator]:g})"
+    return StepBound("linear_contact", what, limit, recommended), t_c
 
 
 def linear_collision_time(w0, beta, clipped):
