@@ -63,6 +63,23 @@ def test_linear_history_wall(integrator):
     assert float(ds.contact_time) == pytest.approx(float(ds.contact_time_analytic), rel=TOL)
 
 
+@pytest.mark.parametrize("integrator", ["verlet", "gear"])
+@pytest.mark.parametrize("restitution", [0.05, 0.01])
+def test_a_heavily_damped_linear_collision_at_the_step_limit_keeps_its_restitution(integrator,
+                                                                                   restitution):
+    """At (just under) the largest step the engine accepts, a head-on linear collision with a
+    damping ratio of 2-5 (clipped e = 0.05, 0.01) returns its restitution within 25 %: the
+    accuracy the limit gives moderately damped contacts (e = 0.3 and 0.15 at the limit: 6 % and
+    21 % off with Verlet). The collision-time share alone let the dashpot run past its explicit
+    limit, gamma_N dt > 1 (Verlet) or 0.163 (Gear): e = 0.05 came back 0.91 (Gear 1.82) and
+    e = 0.01 at 3.5 (Gear 4.9) times its speed (issue 47, found from seed 57
+    `spring_dashpot:26`)."""
+    ds = run_collision(contact_law="linear_history", target="wall", restitution=restitution,
+                       integrator=integrator, dt_factor=4.99)
+    assert float(ds.restitution_analytic) == pytest.approx(restitution, rel=1e-9)
+    assert float(ds.restitution) == pytest.approx(restitution, rel=0.25)
+
+
 def test_hertz_elastic_contact_time():
     """Undamped Hertz: t_c = 2.9433 xi_max / v, independent of the code."""
     for speed in (0.1, 1.0, 5.0):
