@@ -160,3 +160,37 @@ def test_the_engine_guide_tables_every_contact_laws_constants():
         got = (default if default == "required" else float(Fraction(default)), lo_bracket,
                float(lo), float(hi), hi_bracket)
         assert got == want, key
+
+
+def test_the_engine_guide_tables_a_materials_fields():
+    """docs/engine.md's table of a Material's fields: the same fields and defaults as the
+    dataclass, and each range's ends refused or taken as the table's brackets say (issue 47,
+    seed 57 `materials:25`: the default Poisson ratio changed, and no test saw it)."""
+    import dataclasses
+
+    from millsim.models import Material
+
+    guide = (ROOT / "docs" / "engine.md").read_text()
+    rows = re.findall(r"^\| `(\w+)` \| [^|]+ \| ([^|]+) \| ([^|]+) \|$", guide, re.M)
+    fields = {f.name: f.default for f in dataclasses.fields(Material)}
+    documented = {name: (default.strip(), allowed.strip()) for name, default, allowed in rows
+                  if name in fields}
+    assert sorted(documented) == sorted(fields)
+    for name, (default, allowed) in documented.items():
+        value = fields[name]
+        if default.startswith("required"):
+            assert value is dataclasses.MISSING or math.isnan(value), name
+        else:
+            assert value == float(default), name
+        ends = re.fullmatch(r"([\[(])(\S+), (\S+)([\])])", allowed)
+        if ends is None:
+            continue
+        given = {"name": "m", "density": 1000.0, "youngs_modulus": 1e9, "poisson_ratio": 0.3}
+        for end, bracket in ((float(ends[2]), ends[1]), (float(ends[3]), ends[4])):
+            if math.isinf(end):
+                continue
+            if bracket in "()":
+                with pytest.raises(ValueError, match=rf"^m\.{name}: "):
+                    Material(**{**given, name: end})
+            else:
+                assert getattr(Material(**{**given, name: end}), name) == end
