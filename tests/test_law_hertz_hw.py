@@ -46,6 +46,29 @@ def test_friction_is_the_haff_werner_law():
     assert not hist.any()
 
 
+@pytest.mark.parametrize("n", [(0.0, 0.0, 1.0), (0.2, -0.3, 0.9)])
+def test_friction_is_the_haff_werner_law_in_any_direction(n):
+    """The same law for a contact plane of any orientation, the relative velocity with a normal
+    part and a slip with every component: F_T = -min(m_eff gamma_T |v_t|, mu F_N) v_t / |v_t|, v_t
+    split off here (the test above has n = x and a slip along y only, where a slip's z part
+    counted with the wrong sign goes unseen: issue 47, read ahead for seed 57 `hertz_hw:34`)."""
+    law = LAWS["hertz_hw"]
+    table = MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(
+        restitution=0.5, friction=0.3, tangential_damping_rate=200.0)}, "hertz_hw")
+    p = table.pair_params()[0, 0]
+    n = np.array(n) / np.linalg.norm(n)
+    slip = np.cross(n, [0.4, -0.7, 0.25])
+    slip += np.cross(n, slip)  # every component non-zero
+    m_eff, r_eff, xi = 1e-5, 5e-4, 1e-5
+    for scale, beyond in ((1e-4, False), (10.0, True)):  # below the Coulomb limit, beyond it
+        s = scale * slip
+        v = s - 1e-3 * n  # approaching slowly: the normal force is the elastic one, nearly
+        fn, *ft, _ = law.force(p, xi, *n, *v, m_eff, r_eff, True, np.zeros((1, 3)), 0, 1e-6)
+        assert fn > 0.0 and (m_eff * 200.0 * np.linalg.norm(s) > 0.3 * fn) == beyond
+        size = min(m_eff * 200.0 * np.linalg.norm(s), 0.3 * fn)
+        np.testing.assert_allclose(ft, -size * s / np.linalg.norm(s), rtol=1e-9, atol=0)
+
+
 def test_step_bounds_include_the_contact_time_and_the_dashpot():
     table = MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(
         restitution=0.5, tangential_damping_rate=200.0)}, "hertz_hw")
