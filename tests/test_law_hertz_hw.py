@@ -69,6 +69,25 @@ def test_friction_is_the_haff_werner_law_in_any_direction(n):
         np.testing.assert_allclose(ft, -size * s / np.linalg.norm(s), rtol=1e-9, atol=0)
 
 
+def test_no_slip_or_no_load_gives_no_friction():
+    """Coulomb's limit mu F_N and the isotropy of the tangent plane: a head-on approach (no slip)
+    and a clipped, separating contact (F_N = 0) that slips both get no tangential force (issue 47,
+    seed 57 `hertz_hw:36`: 1 N along y on that early return)."""
+    law = LAWS["hertz_hw"]
+    table = MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(
+        restitution=0.3, friction=0.3, tangential_damping_rate=200.0)}, "hertz_hw")
+    p = table.pair_params()[0, 0]
+    m_eff, r_eff, xi = 1e-5, 5e-4, 1e-5
+    tilted = np.array([0.2, -0.3, 0.9]) / math.sqrt(0.94)
+    slip = np.cross(tilted, [0.4, -0.7, 0.25])
+    # the head-on normal along an axis, where the split leaves no rounding slip
+    for n, v, loaded in (((1.0, 0.0, 0.0), (-0.5, 0.0, 0.0), True),
+                         (tilted, 0.01 * slip + 10.0 * tilted, False)):
+        fn, *ft, _ = law.force(p, xi, *n, *v, m_eff, r_eff, True, np.zeros((1, 3)), 0, 1e-6)
+        assert (fn > 0.0) == loaded
+        assert ft == [0.0, 0.0, 0.0]
+
+
 def test_step_bounds_include_the_contact_time_and_the_dashpot():
     table = MaterialTable([Material("m", 2500.0, 5e6, 0.3)], {"*": Interaction(
         restitution=0.5, tangential_damping_rate=200.0)}, "hertz_hw")

@@ -114,7 +114,8 @@ def test_linear_damping_ratio_against_the_clipped_closed_form(e):
 @pytest.mark.parametrize("e", SWEEP)
 def test_hertz_damping_against_an_independent_ode(e):
     """The Hertz normal ODE in SI units (E* = 2.75e6 Pa, R = 0.5 mm, m = 5.2e-6 kg, 1 m/s), RK45
-    here (the code uses DOP853 in scaled units): the damping of each convention returns e."""
+    here (the code uses DOP853 in scaled units): the damping of each convention returns e, and so
+    does the code's scaled ODE."""
     e_star, r_eff, m, v0 = 2.75e6, 0.5e-3, 5.2e-6, 1.0
     for convention in ("clipped", "unclipped"):
         c = hertz_beta_term(e, convention)
@@ -132,6 +133,9 @@ def test_hertz_damping_against_an_independent_ode(e):
         sol = solve_ivp(rhs, (0, 1e-2), [1e-12, v0], events=end, rtol=1e-10, atol=1e-16,
                         max_step=1e-7)
         assert -sol.y_events[0][0][1] / v0 == pytest.approx(e, rel=1e-6), convention
+        # the law's own scaled ODE, which reports the restitution, returns it too (issue 47,
+        # seed 57 `hertz_mindlin:89`: the unclipped contact ended at zero speed)
+        assert hertz_restitution(c, convention == "clipped") == pytest.approx(e, rel=1e-6)
 
 
 def _run_case(values):
