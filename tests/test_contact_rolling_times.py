@@ -43,6 +43,25 @@ def linear_clipped_collision(k, m_eff, beta):
     return math.exp(-beta * t_c), t_c
 
 
+def linear_head_on_ode(w0, zeta, clipped):
+    """The head-on linear spring-dashpot collision xi'' = -w0^2 xi - 2 zeta w0 xi', xi' = 1 at
+    touch, integrated here (DOP853, rtol 1e-11) until the force xi + 2 zeta xi' / w0 reaches zero
+    (clipped) or the overlap does: (contact time, rebound speed), or None when it does not end
+    within 30 / w0 (an overdamped unclipped contact never closes)."""
+    if clipped:
+        end = lambda _, y: y[0] + 2.0 * zeta * y[1] / w0  # noqa: E731  the force / k
+    else:
+        end = lambda _, y: y[0]  # noqa: E731
+    end.terminal, end.direction = True, -1
+    start = 1e-15 / w0
+    sol = solve_ivp(lambda _, y: [y[1], -w0**2 * y[0] - 2.0 * zeta * w0 * y[1]],
+                    (start, 30.0 / w0), [start, 1.0], events=end, method="DOP853", rtol=1e-11,
+                    atol=1e-30)
+    if len(sol.t_events[0]) == 0:
+        return None
+    return sol.t_events[0][0], -sol.y_events[0][0][1]
+
+
 def _head_on(sim, pairs, n_steps):
     """Per step: relative normal velocity, overlap and force of each (i, j) pair moving along x."""
     m = sim.masses()
@@ -255,13 +274,10 @@ def test_hertz_contact_time_against_ode(m, r, es, v):
 def test_linear_contact_time_against_ode(k, m, gamma):
     """Damped linear collision m* xi'' = -k xi - m* gamma xi' from xi' = 1 until xi = 0 again
     (overlap-end convention), integrated here: t_c = pi / sqrt(k/m* - gamma^2/4)."""
-    end = lambda _, y: y[0]  # noqa: E731
-    end.terminal, end.direction = True, -1
-    sol = solve_ivp(lambda _, y: [y[1], -k / m * y[0] - gamma * y[1]], (1e-12, 1.0), [1e-12, 1.0],
-                    events=end, method="DOP853", rtol=1e-11, atol=1e-16)
-    t_c, w0 = linear_contact_time(k, m, gamma)
-    assert t_c == pytest.approx(sol.t_events[0][0], rel=1e-7)
-    assert w0 == pytest.approx(math.sqrt(k / m), rel=1e-12)
+    w0 = math.sqrt(k / m)
+    t_c, w0_law = linear_contact_time(k, m, gamma)
+    assert t_c == pytest.approx(linear_head_on_ode(w0, gamma / (2.0 * w0), False)[0], rel=1e-7)
+    assert w0_law == pytest.approx(w0, rel=1e-12)
 
 
 @pytest.mark.parametrize("zeta", [0.3, 1.0, 2.0, 5.0])
@@ -281,22 +297,15 @@ def test_linear_head_on_collision_against_ode_also_overdamped(zeta, clipped):
     )
 
     w0 = 2.5e4  # 1/s: times scale as 1/w0, the restitution not at all; 30 / w0 outlasts them all
-    if clipped:
-        end = lambda _, y: y[0] + 2.0 * zeta * y[1] / w0  # noqa: E731  the force / k
-    else:
-        end = lambda _, y: y[0]  # noqa: E731
-    end.terminal, end.direction = True, -1
-    sol = solve_ivp(lambda _, y: [y[1], -w0**2 * y[0] - 2.0 * zeta * w0 * y[1]],
-                    (1e-15, 30.0 / w0), [1e-15, 1.0], events=end, method="DOP853", rtol=1e-11,
-                    atol=1e-30)
+    ode = linear_head_on_ode(w0, zeta, clipped)
     t_c = linear_collision_time(w0, zeta * w0, clipped)
     e = linear_restitution(zeta, clipped)
     if not clipped and zeta >= 1.0:
-        assert len(sol.t_events[0]) == 0  # the overlap never closes
+        assert ode is None  # the overlap never closes
         assert math.isinf(t_c) and e == 0.0
         return
-    assert t_c == pytest.approx(sol.t_events[0][0], rel=1e-7)
-    assert e == pytest.approx(-sol.y_events[0][0][1], rel=1e-7)
+    assert t_c == pytest.approx(ode[0], rel=1e-7)
+    assert e == pytest.approx(ode[1], rel=1e-7)
     convention = "clipped" if clipped else "unclipped"
     assert damping_ratio(e, convention) == pytest.approx(zeta, rel=1e-7)
 
@@ -321,12 +330,8 @@ def test_a_linear_laws_contact_time_is_its_damped_half_period(law):
     mat = Material("m", 2500.0)
     row = LAWS[law].parameter_row(mat, mat, {n: values[n] for n in LAWS[law].parameter_names},
                                   "clipped")
-    end = lambda _, y: y[0]  # noqa: E731
-    end.terminal, end.direction = True, -1
-    sol = solve_ivp(lambda _, y: [y[1], -k / m_eff * y[0] - gamma * y[1]], (1e-12, 1.0),
-                    [1e-12, 1.0], events=end, method="DOP853", rtol=1e-11, atol=1e-16)
-    assert LAWS[law].contact_time(row, m_eff, 1e-3, 2.0) == pytest.approx(sol.t_events[0][0],
-                                                                          rel=1e-7)
+    t_ode = linear_head_on_ode(w0, gamma / (2.0 * w0), False)[0]
+    assert LAWS[law].contact_time(row, m_eff, 1e-3, 2.0) == pytest.approx(t_ode, rel=1e-7)
 
 
 @pytest.mark.parametrize("clip", [True, False])
@@ -357,11 +362,4 @@ def test_the_damping_of_a_restitution_returns_it_through_the_ode(e, convention):
     from millsim.models.contact.spring_dashpot import damping_ratio
 
     zeta = damping_ratio(e, convention)
-    if convention == "clipped":
-        end = lambda _, y: y[0] + 2.0 * zeta * y[1]  # noqa: E731
-    else:
-        end = lambda _, y: y[0]  # noqa: E731
-    end.terminal, end.direction = True, -1
-    sol = solve_ivp(lambda _, y: [y[1], -y[0] - 2.0 * zeta * y[1]], (1e-15, 30.0), [1e-15, 1.0],
-                    events=end, method="DOP853", rtol=1e-11, atol=1e-30)
-    assert -sol.y_events[0][0][1] == pytest.approx(e, rel=1e-7)
+    assert linear_head_on_ode(1.0, zeta, convention == "clipped")[1] == pytest.approx(e, rel=1e-7)

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .integrators import DAMPING_LIMIT
+
 # A step a few units of rounding above the limit is at the limit: dt_factor x the recommended step
 # lands there when the factor is the ratio of the two (5 x t_c/50 against t_c/10), up to rounding.
 ROUNDING = 4 * sys.float_info.epsilon
@@ -32,6 +34,21 @@ RAYLEIGH_LIMIT = 0.4
 RAYLEIGH_RECOMMENDED = 0.1
 # Kinds of bound; each contact law adds those it gives when it is registered (models/contact/).
 BOUND_KINDS = ["lubrication"]
+
+
+def with_dashpot(limit, recommended, rate, integrator):
+    """A contact's step bounds joined with its normal dashpot's explicit limit: (limit,
+    recommended, whether the dashpot binds).
+
+    A dashpot relaxing the relative normal speed at up to ``rate`` [1/s] needs rate dt <=
+    DAMPING_LIMIT[integrator]. A share of the collision time stops shrinking as the damping grows
+    (the linear one is capped, the Hertz one does not see the damping), so past some damping the
+    dashpot binds; its recommended step then keeps the contacts' ratio of recommended to limit."""
+    dashpot = DAMPING_LIMIT[integrator] / rate if rate > 0 else math.inf
+    if dashpot >= limit:
+        return limit, recommended, False
+    return dashpot, min(recommended, dashpot * STEPS_PER_CONTACT_LIMIT
+                        / STEPS_PER_CONTACT_RECOMMENDED), True
 
 
 def register_bound_kinds(kinds):

@@ -11,6 +11,7 @@ from functools import cache
 from numba import njit
 from scipy.optimize import brentq
 
+from ...engine.integrators import DAMPING_LIMIT
 from ...engine.jit_options import FAST
 from ...engine.timestep import (
     RAYLEIGH_LIMIT,
@@ -18,6 +19,7 @@ from ...engine.timestep import (
     STEPS_PER_CONTACT_LIMIT,
     STEPS_PER_CONTACT_RECOMMENDED,
     StepBound,
+    with_dashpot,
 )
 from .base import ContactLaw, Parameter
 from .kernels import _split, _spring_friction
@@ -60,6 +62,20 @@ def rayleigh_time(radius, density, shear_modulus, poisson_ratio):
 
 def hertz_contact_time(m_eff, r_eff, e_star, speed):
     return 2.87 * (m_eff**2 / (r_eff * e_star**2 * speed)) ** 0.2
+
+
+def hertz_peak_overlap(m_eff, r_eff, e_star, speed):
+    """Largest overlap of an elastic Hertz collision at ``speed`` (energy balance); a damped one
+    stays below it."""
+    return (15 * m_eff * speed * speed / (16 * e_star * math.sqrt(r_eff))) ** 0.4
+
+
+def hertz_peak_damping_rate(m_eff, r_eff, e_star, beta_term, speed):
+    """Fastest relaxation of the normal speed by the EDEM dashpot beta_term sqrt(S_n m*): the rate
+    beta_term sqrt(S_n / m*) grows with the stiffness S_n = 2 E* sqrt(r xi), so it peaks at the
+    largest overlap (the elastic one bounds it)."""
+    s_n = 2.0 * e_star * math.sqrt(r_eff * hertz_peak_overlap(m_eff, r_eff, e_star, speed))
+    return beta_term * math.sqrt(s_n / m_eff)
 
 
 def effective_moduli(a, b):
@@ -162,12 +178,19 @@ class HertzMindlin(ContactLaw):
     def bounds(self, mat, p, ra, m_eff, r_eff, names, impact_speed, dim, integrator):
         t_r = rayleigh_time(ra, mat.density, mat.shear_modulus, mat.poisson_ratio)
         t_c = self.contact_time(p, m_eff, r_eff, impact_speed)
+        what = f"the Hertz contact time {t_c:.4g} s of the {names} at {impact_speed:g} m/s"
+        rate = hertz_peak_damping_rate(m_eff, r_eff, float(p[P_E_STAR]), float(p[P_BETA_TERM]),
+                                       impact_speed)
+        limit, recommended, binds = with_dashpot(t_c / STEPS_PER_CONTACT_LIMIT,
+                                                 t_c / STEPS_PER_CONTACT_RECOMMENDED, rate,
+                                                 integrator)
+        if binds:
+            what += (f" and its dashpot, relaxing the normal speed at up to {rate:.4g} 1/s "
+                     f"(rate x dt <= {DAMPING_LIMIT[integrator]:g})")
         return (StepBound("rayleigh", f"the Rayleigh time {t_r:.4g} s of the smallest {mat.name} "
                           f"particle (r = {ra:.4g} m)", RAYLEIGH_LIMIT * t_r,
                           RAYLEIGH_RECOMMENDED * t_r),
-                StepBound("hertz_contact", f"the Hertz contact time {t_c:.4g} s of the {names} "
-                          f"at {impact_speed:g} m/s", t_c / STEPS_PER_CONTACT_LIMIT,
-                          t_c / STEPS_PER_CONTACT_RECOMMENDED)), t_c
+                StepBound("hertz_contact", what, limit, recommended)), t_c
 
     def contact_time(self, p, m_eff, r_eff, speed):
         return hertz_contact_time(m_eff, r_eff, p[P_E_STAR], speed)
@@ -178,8 +201,7 @@ class HertzMindlin(ContactLaw):
     def collision_time(self, p, m_eff, r_eff, speed, clipped):
         e_star, beta_term = float(p[P_E_STAR]), float(p[P_BETA_TERM])
         if beta_term == 0.0:  # elastic: closed form
-            xi_max = (15 * m_eff * speed * speed / (16 * e_star * math.sqrt(r_eff))) ** 0.4
-            return HERTZ_TIME_FACTOR * xi_max / speed
+            return HERTZ_TIME_FACTOR * hertz_peak_overlap(m_eff, r_eff, e_star, speed) / speed
         return hertz_reference(m_eff, r_eff, e_star, beta_term, speed, clipped)[1]
 
 

@@ -16,7 +16,12 @@ from functools import cache
 from scipy.optimize import brentq
 
 from ...engine.integrators import DAMPING_LIMIT, GEAR_OMEGA_DT_LIMIT
-from ...engine.timestep import STEPS_PER_CONTACT_LIMIT, STEPS_PER_CONTACT_RECOMMENDED, StepBound
+from ...engine.timestep import (
+    STEPS_PER_CONTACT_LIMIT,
+    STEPS_PER_CONTACT_RECOMMENDED,
+    StepBound,
+    with_dashpot,
+)
 
 
 def linear_contact_time(stiffness, m_eff, damping_rate):
@@ -44,11 +49,8 @@ def linear_contact_bound(kn, m_eff, gamma, names, integrator):
     if integrator == "gear":
         limit = min(limit, GEAR_OMEGA_DT_LIMIT / w0)
         what += f" and Gear stability w0 dt <= {GEAR_OMEGA_DT_LIMIT}"
-    dashpot = DAMPING_LIMIT[integrator] / gamma if gamma > 0 else math.inf
-    if dashpot < limit:
-        limit = dashpot
-        recommended = min(recommended, dashpot * STEPS_PER_CONTACT_LIMIT
-                          / STEPS_PER_CONTACT_RECOMMENDED)
+    limit, recommended, binds = with_dashpot(limit, recommended, gamma, integrator)
+    if binds:
         what += f" and its dashpot gamma_N = {gamma:.4g} 1/s (gamma_N dt <= {DAMPING_LIMIT[integrator]:g})"
     return StepBound("linear_contact", what, limit, recommended), t_c
 
