@@ -509,6 +509,30 @@ def _squeeze_amplification(sim, v0, steps, stop_at):
     return max(vz[-10:]), max(dz)
 
 
+@pytest.mark.parametrize("law", ["linear_history", "hertz_mindlin"])
+def test_the_films_step_bound_adds_the_spring_of_a_linear_contact_only(law):
+    """The film's step bound (lubrication.md 4) adds the contact spring and dashpot of a pair of
+    the lightest beads, m_eff = m / 2: for a linear law k_n and its damping rate
+    2 zeta sqrt(k_n / m_eff) (zeta the clipped convention's, closed form, tests/helpers.py); a
+    Hertz contact, whose stiffness grows with the overlap and which has its own step bounds, adds
+    none (issue 47, seed 57 `base:154`: every law without a linear spring given k_n = 1 N/m)."""
+    k_n, e = 2e4, 0.6
+    values = dict(restitution=e, friction=0.3)
+    if law == "linear_history":
+        values["normal_stiffness"] = k_n
+    table = MaterialTable([Material("bead", RHO, 2e8, 0.3)], {"*": Interaction(**values)}, law)
+    sim = Simulation(WET_GEAR, table, x=[[0.0, 0.0, 0.01]], radius=[A_S], material="bead",
+                     fluid=Lubrication(eta=ETA, h_min=H_MIN, h_max=H_MAX))
+    m = mass(A_S)
+    if law == "linear_history":
+        spring, dashpot = k_n, 2.0 * clipped_damping_ratio(e) * math.sqrt(k_n / (0.5 * m))
+    else:
+        spring, dashpot = 0.0, 0.0
+    expected = lubrication_dt_limit(ETA, H_MIN * 2 * A_S, A_S, m, spring, dashpot, "gear")
+    (film,) = [b for b in sim.dt_report.bounds if b.kind == "lubrication"]
+    assert film.limit == pytest.approx(expected.step_bound().limit, rel=1e-12, abs=0.0)
+
+
 # contact spring k_n [N/m] and restitution e of the three stability cases: the squeeze alone;
 # spring, dashpot and squeeze of similar rates (sqrt(lambda_k) ~ lambda_c); a stiff spring with
 # the squeeze as the only damping (sqrt(lambda_k) ~ 10 lambda_c), where the Gear boundary depends on
