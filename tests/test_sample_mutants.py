@@ -222,3 +222,35 @@ def test_a_record_made_against_other_test_files_is_not_resumed(tmp_path, monkeyp
     with pytest.raises(SystemExit):
         sample_mutants.main(argv)  # the second mutant would run against other files
     assert len(json.loads(record.read_text())["results"]) == 1
+
+
+def test_every_kernel_the_step_loop_is_handed_lives_in_a_file_mutated_with_a_fresh_cache():
+    """A mutant of a file whose functions the compiled loop calls runs with an empty kernel cache
+    (mutate.COMPILED): numba caches the loop under the runner's file and does not see a callee's
+    file change, so with the baseline's cache such a mutant runs the unmutated loop and survives
+    whatever its tests (issue 47, seed 57: tavares_log's kernels were outside the list, and six
+    of its ten mutants "survived" in 5 s). Every breakage model's and the film's kernels, and
+    every contact law's force, checked by the file its Python source lives in."""
+    import inspect
+
+    from mutate import COMPILED
+
+    import millsim.models  # noqa: F401  registers the models
+    import millsim.models.breakage.tavares_log  # noqa: F401
+    from millsim.engine.models import ParticleModel
+    from millsim.models import Lubrication
+    from millsim.models.contact import LAWS
+
+    def subclasses(cls):
+        for sub in cls.__subclasses__():
+            yield sub
+            yield from subclasses(sub)
+
+    handed = [k for cls in subclasses(ParticleModel)
+              if isinstance(getattr(cls, "kernels", None), tuple) for k in cls.kernels]
+    handed += list(Lubrication(eta=0.01, h_min=0.001, h_max=0.05).kernels)
+    handed += [law.force for law in LAWS.values()]
+    assert len(handed) > 30
+    files = {str(Path(inspect.getsourcefile(getattr(k, "py_func", k))).relative_to(ROOT))
+             for k in handed}
+    assert {f for f in files if not f.startswith(COMPILED)} == set()

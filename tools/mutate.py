@@ -51,7 +51,8 @@ REQUIRED = ("id", "file", "find", "replace", "tests", "why")
 # Files with functions the compiled loop calls or inlines (a mutant there needs a fresh cache).
 COMPILED = ("src/millsim/engine/", "src/millsim/models/contact/", "src/millsim/models/lubrication.py",
             "src/millsim/models/breakage/weibull.py", "src/millsim/models/breakage/damage.py",
-            "src/millsim/models/breakage/tavares_engine.py", "src/millsim/breakage/weibull.py",
+            "src/millsim/models/breakage/tavares_engine.py",
+            "src/millsim/models/breakage/tavares_log.py", "src/millsim/breakage/weibull.py",
             "src/millsim/breakage/damage.py")
 
 
