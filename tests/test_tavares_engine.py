@@ -124,6 +124,38 @@ def test_breaks_when_absorbed_energy_reaches_fracture_energy():
     assert direction == pytest.approx([0, 0, 1], abs=1e-9)  # the plate pushes up
 
 
+N_TILTED = np.array([2.0, -3.0, 6.0]) / 7.0  # a unit normal with three distinct components
+
+
+@pytest.mark.parametrize("partner", ["wall", "pair"])
+def test_a_breaking_particles_direction_is_its_contact_force_in_any_orientation(partner):
+    """The direction a breakage record carries is that of the largest contact force on the
+    particle (it orients the progeny): head-on along a tilted normal n, +n from a plate whose
+    normal is n, and for a pair the unit vector from the partner to the particle, for both
+    particles (each breaks at the same step). The plate test above lies along z, which is also
+    what a record with no direction reads as (issue 47, seed 57 `tavares_engine:77`: the pair's
+    second particle given the force's y component for its x; `:156`: the z component written
+    one column past the row)."""
+    v0, r = 2.0, 2.75e-3
+    table = MaterialTable([ORE, STEEL], {"*": Interaction(restitution=0.5, friction=0.5)})
+    if partner == "wall":
+        x, v = [1.05 * r * N_TILTED], [-v0 * N_TILTED]
+        walls = [dict(kind="plane", point=(0, 0, 0), normal=tuple(N_TILTED), material="steel")]
+        expected = {0: N_TILTED}
+    else:
+        x, v = [1.05 * r * N_TILTED, -1.05 * r * N_TILTED], [-v0 * N_TILTED, v0 * N_TILTED]
+        walls = []
+        expected = {0: N_TILTED, 1: -N_TILTED}
+    sim = Simulation(SPEC, table, x=x, radius=[r] * len(x), material="ore", v=v,
+                     gravity=(0, 0, 0), step=StepPolicy(impact_speed=2 * v0), walls=walls,
+                     breakage=TavaresModel({"ore": (5.0, 0.0)}))
+    sim.breakage.e_frac[:] = 0.05  # J/kg: the first loaded steps break them
+    broken = _run_until_rebound(sim, steps=400)
+    assert {b.particle for b in broken} == set(expected)
+    for b in broken:
+        assert b.direction == pytest.approx(expected[b.particle], abs=1e-9)
+
+
 def test_unbreakable_particles_never_break_nor_change():
     sim = _impact(5.0, np.inf)
     assert not _run_until_rebound(sim)
