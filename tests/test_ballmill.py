@@ -42,6 +42,12 @@ def test_split_conserves_area_and_stays_inside_the_parent():
         assert (np.linalg.norm(centres - center, axis=1) + radii <= parent * (1 + 1e-12)).all()
         # Opened across the force: the centres line up perpendicular to it.
         assert abs(np.dot(centres[0] - centres[1], force)) < 1e-12
+    # A break with no force direction (none recorded) still splits the disk, along some line:
+    # finite centres, the same area, inside the parent (issue 47, seed 57 `weibull:68`: 0/0).
+    centre = np.array([0.3, -0.2, 0.0])
+    centres, radii = split_disk(centre, 2e-3, np.zeros(3), 0.4)
+    assert np.isfinite(centres).all() and (radii**2).sum() == pytest.approx(4e-6, rel=1e-14)
+    assert (np.linalg.norm(centres - centre, axis=1) + radii <= 2e-3 * (1 + 1e-12)).all()
 
 
 def _colliding_pairs(count, speed, c, dt_factor=1.0, seed=5):
