@@ -50,6 +50,34 @@ def test_split_conserves_area_and_stays_inside_the_parent():
     assert (np.linalg.norm(centres - centre, axis=1) + radii <= 2e-3 * (1 + 1e-12)).all()
 
 
+def test_twin_fragments_resist_only_the_overlap_beyond_their_creation_overlap():
+    """The twins' normal force (Buchholtz et al. 2000, eqs 19-20), the kernel called with a
+    contact-state row whose law columns (before ``base``) hold other numbers: compressed
+    (v_n < 0), the linear spring on the overlap beyond the reference (negative inside it) plus
+    the dashpot, never pulling; parting, the constant relief force; the reference follows the overlap down. A pair
+    that is not twins is left to the law (issue 47, seed 57 `weibull:121`: the reference read
+    from the law's spring columns)."""
+    from millsim.models.breakage.weibull import KERNELS, TWIN, XIP, WeibullBundle
+
+    override = KERNELS.pair_override.py_func
+    k_n, gamma_n, relief, m_eff, ref = 5e3, 400.0, 2e-3, 1e-5, 4e-5
+    p = np.array([k_n, gamma_n, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0])
+    bs = WeibullBundle(np.array([1e-6, 0.0, relief]))
+    base = 3  # the law's three spring columns first
+    n = (0.6, -0.8, 0.0)
+    for xi, vn, want in ((6e-5, -0.02, k_n * 2e-5 + m_eff * gamma_n * 0.02),  # beyond the ref
+                         (3e-5, -0.001, 0.0),  # inside it: the spring pulls, clipped
+                         (3e-5, -20.0, -k_n * 1e-5 + m_eff * gamma_n * 20.0),  # fast: dashpot
+                         (3e-5, 0.01, relief)):  # parting: the relief force
+        state = np.array([[7e-5, -2e-5, 9e-5, 0.0, 1.0, ref]])
+        v = tuple(vn * c for c in n)
+        active, fn = override(bs, state, 0, base, p, xi, *n, *v, m_eff)
+        assert active and fn == pytest.approx(want, rel=1e-12, abs=0.0)
+        assert state[0, base + XIP] == min(ref, xi) and state[0, base + TWIN] == 1.0
+    state = np.array([[7e-5, -2e-5, 9e-5, 0.0, 0.0, 0.0]])  # not twins
+    assert override(bs, state, 0, base, p, 6e-5, *n, *(0.0, 0.0, 0.0), m_eff) == (False, 0.0)
+
+
 def _colliding_pairs(count, speed, c, dt_factor=1.0, seed=5):
     """Identical head-on disk pairs far apart: one contact event each, the same peak force."""
     r = 2e-3
