@@ -87,6 +87,36 @@ def test_a_damped_collision_keeps_its_restitution_up_to_the_step_limit(law, inte
     assert float(ds.restitution) == pytest.approx(restitution, rel=rel)
 
 
+@pytest.mark.parametrize("integrator, damping_limit", [("verlet", 1.0), ("gear", 0.163)])
+@pytest.mark.parametrize("restitution", [0.9, 0.05])
+def test_the_hertz_step_bound_holds_the_dashpot_at_the_peak_overlap(integrator, damping_limit,
+                                                                    restitution):
+    """The Hertz contact bound, written out here: t_c / 10 (t_c = 2.87 (m*^2 / (R E*^2 v))^1/5)
+    unless the EDEM dashpot's rate at the elastic peak overlap is faster, beta_term
+    sqrt(S_n / m*) with S_n = 2 E* sqrt(R xi_max) and xi_max from (1/2) m* v^2 = (8/15) E*
+    sqrt(R) xi_max^(5/2); then rate x dt <= 1 (Verlet) or 0.163 (Gear), a fifth of it
+    recommended. e = 0.9 is not bound by its dashpot, e = 0.05 (beta_term 3.55) is."""
+    from millsim.models import Material
+    from millsim.models.contact import LAWS
+    from millsim.models.contact.hertz_mindlin import hertz_beta_term
+
+    law = LAWS["hertz_mindlin"]
+    mat = Material("glass", 2500.0, 5e6, 0.3)
+    row = law.parameter_row(mat, mat, {"restitution": restitution, "friction": 0.5,
+                                       "rolling_friction": 0.0}, "clipped")
+    m_eff, r_eff, v = 5.2e-6, 0.5e-3, 1.0
+    e_star = 5e6 / (2 * (1 - 0.09))
+    (_, bound), _ = law.bounds(mat, row, 1e-3, m_eff, r_eff, "pair", v, 3, integrator)
+    t_c = 2.87 * (m_eff**2 / (r_eff * e_star**2 * v)) ** 0.2
+    xi_max = (15 * m_eff * v**2 / (16 * e_star * math.sqrt(r_eff))) ** 0.4
+    rate = hertz_beta_term(restitution, "clipped") * math.sqrt(
+        2 * e_star * math.sqrt(r_eff * xi_max) / m_eff)
+    dashpot = damping_limit / rate
+    assert (dashpot < t_c / 10) == (restitution == 0.05)
+    assert bound.limit == pytest.approx(min(t_c / 10, dashpot), rel=1e-12, abs=0.0)
+    assert bound.recommended == pytest.approx(min(t_c / 50, dashpot / 5), rel=1e-12, abs=0.0)
+
+
 def test_hertz_elastic_contact_time():
     """Undamped Hertz: t_c = 2.9433 xi_max / v, independent of the code."""
     for speed in (0.1, 1.0, 5.0):
