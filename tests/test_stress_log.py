@@ -36,6 +36,18 @@ def _sim(v0, restitution, walls, z0):
 PLATE = dict(kind="plane", point=(0, 0, 0), normal=(0, 0, 1), material="steel")
 
 
+def _breaking_handler(decisions):
+    """An on_events handler that keeps the decisions and makes each broken particle unbreakable
+    (it stands in for the replacement)."""
+    def handle(s):
+        rows = s.pop_events()
+        decisions.extend(rows)
+        for row in rows:
+            s.breakage.e_frac[row.particle] = np.inf
+
+    return handle
+
+
 def test_log_off_is_the_loop_without_it():
     """Without the log the model hands the engine the kernels, name and fields it always had (so
     every other scene compiles and runs the same loop); with it, a variant of its own."""
@@ -70,13 +82,7 @@ def test_a_breaking_event_is_logged_broken_with_its_energy_up_to_the_break():
     full = SHARE * 0.5 * v0**2
     sim.breakage.e_frac[0] = 0.5 * full
     decisions = []
-
-    def handle(s):
-        rows = s.pop_events()
-        decisions.extend(rows)
-        for row in rows:
-            s.breakage.e_frac[row.particle] = np.inf
-
+    handle = _breaking_handler(decisions)
     sim.run(400, chunk=400, on_events=handle)
     log = sim.breakage.take_stress_log()
     assert len(decisions) == 1 and [ev.broke for ev in log] == [True, False]
@@ -121,13 +127,7 @@ def test_more_bounces_than_the_log_holds_are_all_logged_in_order():
     # the drain's flag never cleared)
     sim.breakage.e_frac[0] = 1e-3
     decisions = []
-
-    def handle(s):
-        rows = s.pop_events()
-        decisions.extend(rows)
-        for row in rows:
-            s.breakage.e_frac[row.particle] = np.inf
-
+    handle = _breaking_handler(decisions)
     for _ in range(400):
         sim.run(10, chunk=10, on_events=handle)
         if decisions:
